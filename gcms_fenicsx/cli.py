@@ -1,0 +1,65 @@
+"""The ``gcms`` command: ``gcms SUBCOMMAND [CONFIG.toml] --out DIR``.
+
+Each subcommand runs the stages it needs and writes its files into DIR only when all
+of them succeeded. Errors in the input end the command with one line naming the key,
+the value and what is allowed (exit status 2); a failed computation ends it with the
+numbers that failed (exit status 1).
+"""
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import time
+from pathlib import Path
+
+from gcms_fenicsx.validation import ConfigError
+
+
+def _common(parser: argparse.ArgumentParser, config_required: bool = True) -> None:
+    if config_required:
+        parser.add_argument("config", type=Path, help="study file (TOML)")
+    else:
+        parser.add_argument("config", type=Path, nargs="?", default=None,
+                            help="study file (TOML); the built-in default when omitted")
+    parser.add_argument("--out", type=Path, required=True, help="output folder")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="gcms", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True, metavar="SUBCOMMAND")
+    _common(sub.add_parser("mesh", help="build and mesh the geometry: mesh.msh, mesh.json"))
+    _common(sub.add_parser("modes", help="free-free modes: modes.json, modes.pvd"))
+    _common(sub.add_parser("run", help="every stage, on CONFIG or the built-in default"),
+            config_required=False)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    logging.getLogger().setLevel(logging.WARNING)  # FFCx/CFFI log every JIT compile at INFO
+    from gcms_fenicsx import commands  # heavy imports (dolfinx, PETSc) only once a command runs
+    from gcms_fenicsx.eigen import EigenSolveError
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    t0 = time.perf_counter()
+    try:
+        summary = getattr(commands, args.command)(args.config, args.out)
+    except ConfigError as exc:
+        if comm.rank == 0:
+            print(f"gcms {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except EigenSolveError as exc:
+        if comm.rank == 0:
+            print(f"gcms {args.command}: failed: {exc}", file=sys.stderr)
+        return 1
+    if comm.rank == 0:
+        print(summary)
+        print(f"gcms {args.command}: done in {time.perf_counter() - t0:.1f} s; "
+              f"results in {args.out}/")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,83 @@
+"""What each ``gcms`` subcommand does: the stages it chains and the files it writes.
+
+Every command validates the whole config first, then works in a staging folder that
+replaces the files in ``--out`` only when everything succeeded (``outputs.staged_output``).
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from mpi4py import MPI
+
+from gcms_fenicsx import eigen, fe
+from gcms_fenicsx.config import StudyConfig, load_config
+from gcms_fenicsx.mesh import read_mesh
+from gcms_fenicsx.modes_io import frequency_table, modes_report, write_mode_shapes
+from gcms_fenicsx.outputs import staged_output, write_json
+from gcms_fenicsx.pipeline import Progress, mesh_report, mesh_stage, progress_printer
+
+
+def _mesh_files(cfg: StudyConfig, folder: Path, progress: Progress, comm: MPI.Comm):
+    """Mesh stage plus the mesh's own mass properties; writes mesh.msh and mesh.json."""
+    stage = mesh_stage(cfg, folder, progress, comm)
+    body = read_mesh(stage.msh_path, stage.info.groups, comm)
+    t0 = time.perf_counter()
+    Ms, nodes = fe.assemble_scalar_mass(body.mesh)
+    mass = fe.mass_properties(Ms, nodes, 1.0)
+    report = mesh_report(cfg, stage, mass.to_json(), time.perf_counter() - t0)
+    if comm.rank == 0:
+        write_json(folder / "mesh.json", report)
+    return stage, body, report
+
+
+def _mesh_summary(report: dict) -> str:
+    cad = report["mass_properties"]
+    return "\n".join([
+        f"mesh: {report['nodes']} nodes, {report['cells']} cells (order {report['order']}, "
+        f"size {report['size_m']:g} m)",
+        f"  volume {report['volume_m3']:.6e} m^3 (CAD {cad['volume_m3']:.6e} m^3)",
+        f"  groups: {', '.join(report['physical_groups'])}",
+    ])
+
+
+def mesh(config: Path | None, out: Path) -> str:
+    """``gcms mesh``: mesh.msh and mesh.json."""
+    cfg = load_config(config)
+    comm = MPI.COMM_WORLD
+    with staged_output(out, comm) as folder:
+        _, _, report = _mesh_files(cfg, folder, progress_printer(comm), comm)
+    return _mesh_summary(report)
+
+
+def modes(config: Path | None, out: Path) -> str:
+    """``gcms modes``: the mesh files, modes.json and the mode shapes (modes.pvd)."""
+    cfg = load_config(config)
+    comm = MPI.COMM_WORLD
+    progress = progress_printer(comm)
+    with staged_output(out, comm) as folder:
+        stage, body, mesh_json = _mesh_files(cfg, folder, progress, comm)
+        t0 = time.perf_counter()
+        model = fe.assemble(body.mesh, cfg.material)
+        timings = {"geometry_and_mesh": stage.wall_time_s,
+                   "assembly": time.perf_counter() - t0}
+        progress(f"assembled K, M: {model.ndofs} DOFs")
+        result = eigen.solve_free_free(model, cfg.modes, progress)
+        t0 = time.perf_counter()
+        write_mode_shapes(model, result, folder / "modes.pvd")
+        timings["mode_shapes_output"] = time.perf_counter() - t0
+        report = modes_report(model, result, timings)
+        if comm.rank == 0:
+            write_json(folder / "modes.json", report)
+    return "\n".join([
+        _mesh_summary(mesh_json),
+        f"modes: {report['ndofs']} DOFs, {report['rigid_mode_count']} rigid + "
+        f"{report['elastic_mode_count']} elastic, max residual "
+        f"{report['max_relative_residual']:.1e}, missed {report['missed_eigenvalues']}",
+        frequency_table(result),
+    ])
+
+
+def run(config: Path | None, out: Path) -> str:
+    """``gcms run``: every stage built so far (geometry, mesh, free-free modes)."""
+    return modes(config, out)

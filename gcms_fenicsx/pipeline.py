@@ -1,0 +1,85 @@
+"""The stages of a study, composed: geometry → mesh → K, M → free-free modes.
+
+Each function takes plain inputs (the validated config, a folder) and returns the next
+stage's data; the CLI only chains them inside a staged output folder. Rank 0 runs Gmsh
+and writes files; every rank takes part in the finite-element stages.
+"""
+from __future__ import annotations
+
+import json
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+from mpi4py import MPI
+
+from geometry import MeshInfo, build_msh
+
+from gcms_fenicsx.config import StudyConfig
+
+Progress = Callable[[str], None]
+
+
+def progress_printer(comm: MPI.Comm = MPI.COMM_WORLD) -> Progress:
+    """Print timestamped progress lines to stderr on rank 0."""
+    start = time.perf_counter()
+
+    def report(message: str) -> None:
+        if comm.rank == 0:
+            print(f"[{time.perf_counter() - start:7.1f} s] {message}", file=sys.stderr, flush=True)
+
+    return report
+
+
+@dataclass(frozen=True)
+class MeshStage:
+    """The meshed body: the ``.msh`` file, what Gmsh reported, and its build time."""
+
+    msh_path: Path
+    info: MeshInfo
+    wall_time_s: float
+
+
+def mesh_stage(cfg: StudyConfig, folder: Path, progress: Progress,
+               comm: MPI.Comm = MPI.COMM_WORLD) -> MeshStage:
+    """Build the geometry and mesh it on rank 0 into ``folder/mesh.msh``; every rank gets the info."""
+    path = Path(folder) / "mesh.msh"
+    info, error = None, None
+    t0 = time.perf_counter()
+    if comm.rank == 0:
+        progress(f"geometry and mesh: {type(cfg.geometry).__name__}, size {cfg.mesh.size:g} m, "
+                 f"order {cfg.mesh.order}")
+        try:
+            info = build_msh(cfg.geometry, cfg.mesh, path)
+        except Exception as exc:  # re-raised on every rank below
+            error = exc
+    info, error = comm.bcast((info, error), root=0)
+    if error is not None:
+        raise error
+    progress(f"mesh: {info.nodes} nodes, {info.cells} cells")
+    return MeshStage(msh_path=path, info=info, wall_time_s=time.perf_counter() - t0)
+
+
+def mesh_report(cfg: StudyConfig, stage: MeshStage, fe_mass: dict, volume_time_s: float) -> dict:
+    """The ``mesh.json`` document: counts, groups, and the mesh's mass properties beside the CAD's."""
+    info = stage.info.to_json()
+    return {
+        "nodes": stage.info.nodes,
+        "cells": stage.info.cells,
+        "order": cfg.mesh.order,
+        "size_m": cfg.mesh.size,
+        "volume_m3": fe_mass["volume_m3"],
+        "mesh_mass_properties": fe_mass,
+        "mass_properties": info["mass_properties"],
+        "physical_groups": sorted(stage.info.groups),
+        "geometry": info,
+        "input_digest": cfg.digest("geometry", "mesh"),
+        "timings_s": {"geometry_and_mesh": stage.wall_time_s, "mesh_integrals": volume_time_s},
+    }
+
+
+def read_json(path: Path) -> dict:
+    with open(path) as f:
+        return json.load(f)
