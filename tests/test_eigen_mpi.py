@@ -1,0 +1,27 @@
+"""Two MPI ranks give the serial free-free modes (1e-8 relative) and mass properties."""
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import REPO, mpirun
+
+
+@pytest.mark.mpi
+def test_two_ranks_give_the_serial_frequencies():
+    script = str(REPO / "tests" / "mpi_box_modes.py")
+    serial = subprocess.run([sys.executable, script, "8"], capture_output=True, text=True,
+                            check=True, cwd=REPO)
+    parallel = mpirun([script, "8"], n=2)
+    assert parallel.returncode == 0, parallel.stderr
+    one, two = json.loads(serial.stdout), json.loads(parallel.stdout)
+    assert (one["ranks"], two["ranks"]) == (1, 2)
+    assert one["ndofs"] == two["ndofs"]
+    np.testing.assert_allclose(two["frequencies"], one["frequencies"], rtol=1e-8)
+    assert one["missed"] == two["missed"] == 0
+    assert two["residual"] < 1e-8
+    assert two["kron_defect"] < 1e-14
+    np.testing.assert_allclose(two["volume"], one["volume"], rtol=1e-12)
+    np.testing.assert_allclose(two["inertia"], one["inertia"], rtol=1e-10, atol=1e-20)
