@@ -37,7 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    logging.getLogger().setLevel(logging.WARNING)  # FFCx/CFFI log every JIT compile at INFO
+    logging.disable(logging.INFO)  # the JIT's C build logs every compiler call at INFO
     from gcms_fenicsx import commands  # heavy imports (dolfinx, PETSc) only once a command runs
     from gcms_fenicsx.eigen import EigenSolveError
     from mpi4py import MPI

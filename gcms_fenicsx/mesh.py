@@ -9,10 +9,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+import gmsh
 import numpy as np
 from dolfinx.io import gmshio
 from dolfinx.mesh import Mesh, MeshTagsMetaClass
 from mpi4py import MPI
+
+from geometry.meshing import gmsh_session
 
 
 @dataclass(frozen=True)
@@ -66,6 +69,13 @@ def read_mesh(path: str | Path, groups: dict[str, tuple[int, int]],
     ``groups`` maps physical-group names to (dim, tag), as ``geometry.MeshInfo.groups``;
     the surface (dim 2) ones are kept as facet-tag values.
     """
-    mesh, _, facet_tags = gmshio.read_from_msh(str(path), comm, 0, gdim=3)
+    # dolfinx 0.5.2's gmshio.read_from_msh returns an undefined name on the reading rank,
+    # so merge the file here and hand the model to gmshio.model_to_mesh ourselves
+    if comm.rank == 0:
+        with gmsh_session():
+            gmsh.merge(str(path))
+            mesh, _, facet_tags = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=3)
+    else:
+        mesh, _, facet_tags = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=3)
     surfaces = {name: tag for name, (dim, tag) in groups.items() if dim == 2}
     return BodyMesh(mesh=mesh, facet_tags=facet_tags, groups=surfaces)
