@@ -1,6 +1,7 @@
 """Shared test set-up: the FFCx JIT cache inside the repository, and an mpirun helper."""
 from __future__ import annotations
 
+import logging
 import os
 import subprocess
 import sys
@@ -11,6 +12,7 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 # before anything imports dolfinx: compiled forms go to the repo's ignored .cache/
 os.environ.setdefault("XDG_CACHE_HOME", str(REPO / ".cache"))
+logging.disable(logging.INFO)  # the JIT's C build logs every compiler call at INFO
 sys.path.insert(0, str(Path(__file__).parent))  # test helper modules (beam_theory, ...)
 
 
