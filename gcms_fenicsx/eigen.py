@@ -30,7 +30,7 @@ from petsc4py import PETSc
 from slepc4py import SLEPc
 
 from gcms_fenicsx.modes_config import ModesConfig
-from gcms_fenicsx.fe import FEModel, mass_properties
+from gcms_fenicsx.fe import FEModel, mass_properties, mat_dense
 
 #: Largest admissible rigid-body content ‖Rᵀ M φ‖²/‖φ‖²_M of an elastic mode.
 RIGID_CONTENT_LIMIT = 1e-8
@@ -121,17 +121,6 @@ def rigid_body_fields(nodes: np.ndarray, center: np.ndarray) -> np.ndarray:
     return out.reshape(3 * n, 6)
 
 
-def _mat_dense(A: PETSc.Mat, X: np.ndarray) -> np.ndarray:
-    """A @ X for this rank's owned rows of X (columns one mat-vec each)."""
-    x, y = A.createVecs()
-    out = np.empty_like(X)
-    for j in range(X.shape[1]):
-        x.array[:] = X[:, j]
-        A.mult(x, y)
-        out[:, j] = y.array
-    return out
-
-
 def _gram(comm: MPI.Comm, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
     """Xᵀ Y summed over ranks (owned rows only)."""
     return comm.allreduce(X.T @ Y, op=MPI.SUM)
@@ -150,8 +139,8 @@ def ritz_first_elastic(model: FEModel, center: np.ndarray) -> float:
     poly = np.column_stack([np.ones(len(s)), s, s ** 2, s[:, 0] * s[:, 1], s[:, 1] * s[:, 2],
                             s[:, 2] * s[:, 0]])
     basis = np.kron(poly, np.eye(3))
-    Kq = _gram(comm, basis, _mat_dense(model.K, basis))
-    Mq = _gram(comm, basis, _mat_dense(model.M, basis))
+    Kq = _gram(comm, basis, mat_dense(model.K, basis))
+    Mq = _gram(comm, basis, mat_dense(model.M, basis))
     # a coarse mesh may not tell all ten polynomials apart (y² ≡ const on a one-cell P1
     # beam): keep the M-orthonormal directions Mq does resolve
     mass, vecs = np.linalg.eigh(0.5 * (Mq + Mq.T))
@@ -199,7 +188,7 @@ def inertia_below(model: FEModel, sigma: float) -> int:
 
 def m_orthonormal(comm: MPI.Comm, X: np.ndarray, M: PETSc.Mat) -> np.ndarray:
     """X L⁻ᵀ with Xᵀ M X = L Lᵀ: an M-orthonormal basis of span(X) (Cholesky–Gram–Schmidt)."""
-    chol = np.linalg.cholesky(_gram(comm, X, _mat_dense(M, X)))
+    chol = np.linalg.cholesky(_gram(comm, X, mat_dense(M, X)))
     return scipy.linalg.solve_triangular(chol, X.T, lower=True).T
 
 
@@ -302,8 +291,8 @@ def solve_free_free(model: FEModel, cfg: ModesConfig,
             f"bound {lam7_bound:.3e}): is the mesh one connected body?")
 
     vectors = np.hstack([rigid, elastic])
-    M_vectors = _mat_dense(model.M, vectors)
-    K_vectors = _mat_dense(model.K, vectors)
+    M_vectors = mat_dense(model.M, vectors)
+    K_vectors = mat_dense(model.K, vectors)
     values = np.concatenate([np.diag(_gram(comm, rigid, K_vectors[:, :6])),
                              values[order[:wanted]]])
     # content of each mode in the rigid subspace: ‖Rᵀ M φ‖² / ‖φ‖²_M (R M-orthonormal)

@@ -103,6 +103,19 @@ def assemble(mesh, material: Material, degree: int | None = None) -> FEModel:
                    material=material)
 
 
+def mat_dense(A: PETSc.Mat, X: np.ndarray) -> np.ndarray:
+    """A @ X for X holding this rank's owned rows (one sparse-times-dense MatMatMult)."""
+    comm = A.getComm()
+    B = PETSc.Mat().createDense((A.getSizes()[1], (None, X.shape[1])),
+                                array=np.asfortranarray(X, dtype=PETSc.ScalarType), comm=comm)
+    B.assemble()
+    C = A.matMult(B)
+    out = C.getDenseArray().copy()
+    B.destroy()
+    C.destroy()
+    return out
+
+
 def vector_from_nodal(model: FEModel, values: np.ndarray, scalar: bool = False) -> PETSc.Vec:
     """A PETSc vector on the vector (or scalar) space from this rank's owned nodal values."""
     vec = (model.Ms if scalar else model.K).createVecRight()
@@ -142,11 +155,6 @@ def mass_properties(Ms: PETSc.Mat, nodes: np.ndarray, rho: float) -> MassPropert
     quadrature): the rigid block of the Gram matrix G = Fᵀ Ms F (DESIGN §2).
     """
     fields = np.hstack([np.ones((nodes.shape[0], 1)), nodes])
-    moments = np.empty((4, 4))
-    x, y = Ms.createVecs()
-    for j in range(4):
-        x.array[:] = fields[:, j]
-        Ms.mult(x, y)
-        moments[:, j] = fields.T @ y.array
+    moments = fields.T @ mat_dense(Ms, fields)
     moments = Ms.getComm().tompi4py().allreduce(moments, op=MPI.SUM) / rho
     return MassProperties.from_moments(moments)

@@ -1,0 +1,155 @@
+"""Which GCMS fields to keep: cosine similarity, then a rank-revealing SVD (DESIGN §3).
+
+Works on the small Gram matrix W of the fields (mass-weighted G = Fᵀ Ms F by default,
+Euclidean FᵀF on request); never on Φ, whose columns are dependent exactly when fields
+are (Φ = F ⊗ I3), so whole fields are dropped and the kept space stays closed under
+rotation. The four rigid fields 1, X, Y, Z are never dropped.
+
+1. Directly proportional fields: |cos(f_i, f_j)| = |W_ij| / √(W_ii W_jj) ≥ 1 − cosine_tolerance
+   drops the later field j (reason: proportional to i, with its cosine).
+2. Remaining dependencies, with the rigid fields too: singular values σ of the fields
+   scaled per mode (one scale for a mode's three fields, one for X, Y, Z together, so σ
+   does not change when the body is rotated or a repeated pair's basis is re-chosen).
+   The number of σ ≥ svd_tolerance · σ_max is the rank r; pivoted Cholesky of the scaled
+   Gram matrix (rigid fields first) picks which r fields stay; each dropped field is
+   reported with its relative residual after the kept ones.
+3. Optionally the kept flexible fields are M-orthonormalised against the rigid fields and
+   each other ("preconditioned" basis): Mr becomes block-diagonal.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+import numpy as np
+
+from gcms_fenicsx.validation import Table
+
+RIGID = 4  # fields 1, X, Y, Z
+
+
+@dataclass(frozen=True)
+class SelectionConfig:
+    """The ``[selection]`` table: explicit relative tolerances."""
+
+    cosine_tolerance: float = 1e-6
+    svd_tolerance: float = 1e-6
+    weighting: str = "mass"
+    orthonormalize: bool = False
+
+
+def parse_selection(raw: Mapping[str, Any] | None) -> SelectionConfig:
+    t = Table("selection", raw)
+    d = SelectionConfig()
+    cfg = SelectionConfig(
+        cosine_tolerance=t.number("cosine_tolerance", d.cosine_tolerance, low=0.0, high=0.5),
+        svd_tolerance=t.number("svd_tolerance", d.svd_tolerance, low=0.0, high=0.5),
+        weighting=t.choice("weighting", ("mass", "euclidean"), d.weighting),
+        orthonormalize=t.boolean("orthonormalize", d.orthonormalize),
+    )
+    t.finish()
+    return cfg
+
+
+@dataclass(frozen=True)
+class Selection:
+    """The kept fields (indices into the basis, ascending) and why every other one went."""
+
+    kept: np.ndarray
+    dropped: list[dict] = field(default_factory=list)
+    singular_values: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    config: SelectionConfig = field(default_factory=SelectionConfig)
+
+
+def mode_scales(gram: np.ndarray) -> np.ndarray:
+    """Per-field scale: 1/√W for field 1, one scale for X, Y, Z and one per mode's three fields.
+
+    A rotation of the body mixes X, Y, Z and the three components of each mode by the same
+    orthogonal matrix; these scales are invariant under it (DESIGN §3, orientation).
+    """
+    d = np.diag(gram)
+    nf = len(d)
+    scale = np.empty(nf)
+    scale[0] = 1.0 / np.sqrt(d[0])
+    for start in range(1, nf, 3):
+        block = d[start:start + 3].sum()
+        scale[start:start + 3] = 1.0 / np.sqrt(block) if block > 0 else 0.0
+    return scale
+
+
+def cosine_matrix(gram: np.ndarray) -> np.ndarray:
+    """C = D^-1/2 W D^-1/2 (cosine similarity of the fields in W's inner product)."""
+    d = np.sqrt(np.diag(gram))
+    return gram / np.outer(d, d)
+
+
+def select_fields(gram: np.ndarray, cfg: SelectionConfig, names: tuple[str, ...]) -> Selection:
+    """Cosine stage, then rank-revealing stage, on the field Gram matrix ``gram``."""
+    nf = gram.shape[0]
+    dropped: list[dict] = []
+    cos = cosine_matrix(gram)
+    alive = np.ones(nf, dtype=bool)
+    for j in range(RIGID, nf):
+        for i in range(j):
+            if alive[i] and abs(cos[i, j]) >= 1.0 - cfg.cosine_tolerance:
+                alive[j] = False
+                dropped.append({"field": names[j], "index": j, "stage": "cosine",
+                                "proportional_to": names[i], "cosine": float(cos[i, j])})
+                break
+
+    idx = np.flatnonzero(alive)
+    scale = mode_scales(gram)[idx]
+    scaled = gram[np.ix_(idx, idx)] * np.outer(scale, scale)
+    sigma = np.sqrt(np.clip(np.linalg.eigvalsh(scaled)[::-1], 0.0, None))
+    rank = int(np.sum(sigma >= cfg.svd_tolerance * sigma[0]))
+    order, residual = _pivoted_cholesky(scaled, forced=min(RIGID, rank), steps=rank)
+    keep_local = np.sort(order[:rank])
+    for j in sorted(set(range(len(idx))) - set(keep_local.tolist())):
+        dropped.append({"field": names[idx[j]], "index": int(idx[j]), "stage": "svd",
+                        "relative_residual": float(np.sqrt(max(residual[j], 0.0)
+                                                           / scaled[j, j])),
+                        "threshold_singular_value": float(cfg.svd_tolerance * sigma[0])})
+    kept = idx[keep_local]
+    missing_rigid = set(range(RIGID)) - set(kept.tolist())
+    if missing_rigid:
+        raise ValueError(f"rigid fields {sorted(missing_rigid)} are dependent at "
+                         f"svd_tolerance = {cfg.svd_tolerance:g}: the body is degenerate "
+                         "(flat or a line) or the tolerance is far too loose")
+    return Selection(kept=kept, dropped=sorted(dropped, key=lambda d: d["index"]),
+                     singular_values=sigma, config=cfg)
+
+
+def _pivoted_cholesky(A: np.ndarray, forced: int, steps: int) -> tuple[np.ndarray, np.ndarray]:
+    """Greedy pivoted Cholesky: the first ``forced`` pivots in order, then the largest residual.
+
+    Returns the pivot order and the residual diagonal after ``steps`` pivots (the squared
+    norm of each field's part not spanned by the pivots chosen).
+    """
+    n = A.shape[0]
+    R = A.astype(float).copy()
+    order: list[int] = []
+    for step in range(steps):
+        free = [i for i in range(n) if i not in order]
+        p = step if step < forced else max(free, key=lambda i: R[i, i])
+        if R[p, p] <= 0.0:
+            break
+        order.append(p)
+        v = R[:, p] / np.sqrt(R[p, p])
+        R -= np.outer(v, v)
+    rest = [i for i in range(n) if i not in order]
+    return np.array(order + rest), np.diag(R).copy()
+
+
+def conditioning(gram_mass: np.ndarray, gram_euclid: np.ndarray, kept: np.ndarray) -> dict:
+    """cond₂(Φ) = cond₂(F) = √cond(FᵀF) and cond(Mr) = cond(G), before and after selection.
+
+    Φ = F ⊗ I3 has F's singular values, each three times, so no dense Φ is needed.
+    """
+    def cond(A: np.ndarray) -> float:
+        w = np.linalg.eigvalsh(A)
+        return float(np.inf) if w[0] <= 0 else float(w[-1] / w[0])
+
+    sub = np.ix_(kept, kept)
+    return {"cond_phi_before": float(np.sqrt(cond(gram_euclid))),
+            "cond_phi_after": float(np.sqrt(cond(gram_euclid[sub]))),
+            "cond_mr_before": cond(gram_mass), "cond_mr_after": cond(gram_mass[sub])}
