@@ -1,4 +1,4 @@
-"""Two MPI ranks give the serial free-free modes (1e-8 relative) and mass properties."""
+"""Two MPI ranks give the serial free-free modes (1e-8 relative), mass properties and reduced matrices."""
 import json
 import subprocess
 import sys
@@ -25,3 +25,8 @@ def test_two_ranks_give_the_serial_frequencies():
     assert two["kron_defect"] < 1e-14
     np.testing.assert_allclose(two["volume"], one["volume"], rtol=1e-12)
     np.testing.assert_allclose(two["inertia"], one["inertia"], rtol=1e-10, atol=1e-20)
+    # GCMS fields and reduced matrices: same selection and the same reduced pencil
+    assert two["kept"] == one["kept"]
+    lam1, lam2 = np.array(one["reduced_eigenvalues"]), np.array(two["reduced_eigenvalues"])
+    np.testing.assert_allclose(lam2[6:], lam1[6:], rtol=1e-10)
+    assert np.abs(lam2[:6]).max() < 1e-8 * lam1[6]

@@ -1,0 +1,123 @@
+"""The ``gcms`` command end to end: files it writes, errors it reports, nothing half-written."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import REPO, mpirun
+from gcms_fenicsx.config import default_config_text, load_config
+from gcms_fenicsx.validation import ConfigError
+
+BEAM = """
+[geometry]
+kind = "beam"
+section = "rectangle"
+width = 0.03
+height = 0.02
+length = 0.4
+
+[mesh]
+size = 0.012
+order = 2
+
+[modes]
+count = 6
+"""
+
+
+def gcms(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "gcms_fenicsx.cli", *args], cwd=REPO,
+                          capture_output=True, text=True, timeout=600)
+
+
+@pytest.fixture
+def beam_config(tmp_path):
+    path = tmp_path / "beam.toml"
+    path.write_text(BEAM)
+    return path
+
+
+def test_mesh_writes_msh_and_json(beam_config, tmp_path):
+    out = tmp_path / "out"
+    run = gcms("mesh", str(beam_config), "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    report = json.loads((out / "mesh.json").read_text())
+    assert {"nodes", "cells", "volume_m3", "mass_properties", "physical_groups"} <= set(report)
+    assert report["volume_m3"] == pytest.approx(0.03 * 0.02 * 0.4, rel=1e-9)
+    assert set(report["physical_groups"]) == {"body", "end_x0", "end_xL"}
+    assert (out / "mesh.msh").stat().st_size > 0
+    assert "volume" in run.stdout
+    assert sorted(p.name for p in out.iterdir()) == ["mesh.json", "mesh.msh"]
+
+
+def test_modes_writes_json_and_mode_shapes(beam_config, tmp_path):
+    out = tmp_path / "out"
+    run = gcms("modes", str(beam_config), "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    report = json.loads((out / "modes.json").read_text())
+    assert report["rigid_mode_count"] == 6
+    assert len(report["elastic_frequencies_hz"]) == 6
+    assert report["missed_eigenvalues"] == 0
+    assert report["max_relative_residual"] < 1e-8
+    assert {"assembly", "eigensolve", "inertia_check"} <= set(report["timings_s"])
+    assert report["ndofs"] == 3 * json.loads((out / "mesh.json").read_text())["nodes"]
+    pvd = (out / "modes.pvd").read_text()
+    assert pvd.count("<DataSet") == 6
+    assert "[   " in run.stderr  # progress lines
+
+
+@pytest.mark.parametrize("patch, key", [
+    ("[material]\nnu = 0.5\n", "[material] nu"),
+    ("[material]\nE = -1.0\n", "[material] E"),
+    ("[modes]\ncount = 6\n", "not valid TOML"),  # a table declared twice
+    ("[solver]\nx = 1\n", "[solver]"),
+    ("[material]\nrho_ = 7800.0\n", "[material] rho_"),
+])
+def test_bad_input_is_one_clear_line_and_writes_nothing(beam_config, tmp_path, patch, key):
+    beam_config.write_text(BEAM + patch)
+    out = tmp_path / "out"
+    run = gcms("modes", str(beam_config), "--out", str(out))
+    assert run.returncode == 2
+    assert key in run.stderr and "Traceback" not in run.stderr
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_failed_solve_keeps_earlier_results_and_adds_nothing(beam_config, tmp_path):
+    out = tmp_path / "out"
+    assert gcms("mesh", str(beam_config), "--out", str(out)).returncode == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    beam_config.write_text(BEAM.replace("count = 6", "count = 30\nmax_iterations = 1\n"
+                                        "tolerance = 1e-15"))
+    run = gcms("modes", str(beam_config), "--out", str(out))
+    assert run.returncode == 1
+    assert "converged" in run.stderr and "max_iterations" in run.stderr
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # nothing changed
+
+
+@pytest.mark.mpi
+def test_modes_on_two_ranks_match_serial(beam_config, tmp_path):
+    serial, parallel = tmp_path / "one", tmp_path / "two"
+    assert gcms("modes", str(beam_config), "--out", str(serial)).returncode == 0
+    run = mpirun(["-m", "gcms_fenicsx.cli", "modes", str(beam_config), "--out", str(parallel)])
+    assert run.returncode == 0, run.stderr
+    one = json.loads((serial / "modes.json").read_text())
+    two = json.loads((parallel / "modes.json").read_text())
+    assert two["mpi_ranks"] == 2 and two["ndofs"] == one["ndofs"]
+    np.testing.assert_allclose(two["elastic_frequencies_hz"], one["elastic_frequencies_hz"],
+                               rtol=1e-8)
+    assert two["missed_eigenvalues"] == 0
+
+
+def test_built_in_default_is_the_shipped_workflow_file():
+    assert (REPO / "workflows" / "default.toml").read_text() == default_config_text()
+    cfg = load_config(None)
+    assert cfg.geometry.kind == "crankshaft"
+
+
+def test_missing_config_file_is_a_config_error(tmp_path):
+    with pytest.raises(ConfigError, match="cannot be read"):
+        load_config(tmp_path / "nope.toml")
