@@ -29,7 +29,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="gcms", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True, metavar="SUBCOMMAND")
     _common(sub.add_parser("mesh", help="build and mesh the geometry: mesh.msh, mesh.json"))
-    _common(sub.add_parser("modes", help="free-free modes: modes.json, modes.pvd"))
+    _common(sub.add_parser("modes", help="free-free modes: modes.json, mode_shapes/modes.pvd"))
     _common(sub.add_parser("run", help="every stage, on CONFIG or the built-in default"),
             config_required=False)
     return parser

@@ -51,7 +51,7 @@ def mesh(config: Path | None, out: Path) -> str:
 
 
 def modes(config: Path | None, out: Path) -> str:
-    """``gcms modes``: the mesh files, modes.json and the mode shapes (modes.pvd)."""
+    """``gcms modes``: the mesh files, modes.json and the mode shapes (mode_shapes/modes.pvd)."""
     cfg = load_config(config)
     comm = MPI.COMM_WORLD
     progress = progress_printer(comm)
@@ -64,7 +64,7 @@ def modes(config: Path | None, out: Path) -> str:
         progress(f"assembled K, M: {model.ndofs} DOFs")
         result = eigen.solve_free_free(model, cfg.modes, progress)
         t0 = time.perf_counter()
-        write_mode_shapes(model, result, folder / "modes.pvd")
+        write_mode_shapes(model, result, folder / "mode_shapes" / "modes.pvd")
         timings["mode_shapes_output"] = time.perf_counter() - t0
         report = modes_report(model, result, timings)
         if comm.rank == 0:

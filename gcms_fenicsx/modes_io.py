@@ -15,7 +15,8 @@ from gcms_fenicsx.fe import FEModel, kron_mass_defect
 
 
 def write_mode_shapes(model: FEModel, modes: Modes, path: Path) -> None:
-    """Write every elastic mode shape (M-normalised displacement) to ``path`` (a ``.pvd``)."""
+    """Write every elastic mode shape (M-normalised displacement) to ``path`` (a ``.pvd``;
+    its ``.pvtu``/``.vtu`` pieces go beside it, so give it a folder of its own)."""
     u = fem.Function(model.V, name="mode_shape")
     owned = modes.vectors.shape[0]
     with io.VTKFile(model.comm, str(path), "w") as vtk:

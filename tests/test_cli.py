@@ -65,7 +65,7 @@ def test_modes_writes_json_and_mode_shapes(beam_config, tmp_path):
     assert report["max_relative_residual"] < 1e-8
     assert {"assembly", "eigensolve", "inertia_check"} <= set(report["timings_s"])
     assert report["ndofs"] == 3 * json.loads((out / "mesh.json").read_text())["nodes"]
-    pvd = (out / "modes.pvd").read_text()
+    pvd = (out / "mode_shapes" / "modes.pvd").read_text()
     assert pvd.count("<DataSet") == 6
     assert "[   " in run.stderr  # progress lines
 
