@@ -92,10 +92,5 @@ def reduced_stiffness(model: FEModel, fields: np.ndarray) -> np.ndarray:
     return _sym(model.comm.allreduce(local, op=MPI.SUM))
 
 
-def gravity_matrix(gram_mass_first_row: np.ndarray) -> np.ndarray:
-    """Generalised gravity load per unit g: Φᵀ M (1 ⊗ g) = (Fᵀ Ms 1) ⊗ g, a (3·fields × 3) matrix."""
-    return np.kron(gram_mass_first_row[:, None], np.eye(3))
-
-
 def _sym(A: np.ndarray) -> np.ndarray:
     return 0.5 * (A + A.T)

@@ -6,20 +6,17 @@ and writes files; every rank takes part in the finite-element stages.
 """
 from __future__ import annotations
 
-import json
 import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 from mpi4py import MPI
 
 from geometry import MeshInfo, build_msh
 
 from gcms_fenicsx.config import StudyConfig
-
-Progress = Callable[[str], None]
+from gcms_fenicsx.eigen import Progress
 
 
 def progress_printer(comm: MPI.Comm = MPI.COMM_WORLD) -> Progress:
@@ -78,8 +75,3 @@ def mesh_report(cfg: StudyConfig, stage: MeshStage, fe_mass: dict, volume_time_s
         "input_digest": cfg.digest("geometry", "mesh"),
         "timings_s": {"geometry_and_mesh": stage.wall_time_s, "mesh_integrals": volume_time_s},
     }
-
-
-def read_json(path: Path) -> dict:
-    with open(path) as f:
-        return json.load(f)

@@ -13,8 +13,8 @@ rotation. The four rigid fields 1, X, Y, Z are never dropped.
    The number of σ ≥ svd_tolerance · σ_max is the rank r; pivoted Cholesky of the scaled
    Gram matrix (rigid fields first) picks which r fields stay; each dropped field is
    reported with its relative residual after the kept ones.
-3. Optionally the kept flexible fields are M-orthonormalised against the rigid fields and
-   each other ("preconditioned" basis): Mr becomes block-diagonal.
+
+The caller passes the Gram matrix of its choice: G = Fᵀ Ms F (mass-weighted) or FᵀF.
 """
 from __future__ import annotations
 
@@ -34,8 +34,6 @@ class SelectionConfig:
 
     cosine_tolerance: float = 1e-6
     svd_tolerance: float = 1e-6
-    weighting: str = "mass"
-    orthonormalize: bool = False
 
 
 def parse_selection(raw: Mapping[str, Any] | None) -> SelectionConfig:
@@ -44,8 +42,6 @@ def parse_selection(raw: Mapping[str, Any] | None) -> SelectionConfig:
     cfg = SelectionConfig(
         cosine_tolerance=t.number("cosine_tolerance", d.cosine_tolerance, low=0.0, high=0.5),
         svd_tolerance=t.number("svd_tolerance", d.svd_tolerance, low=0.0, high=0.5),
-        weighting=t.choice("weighting", ("mass", "euclidean"), d.weighting),
-        orthonormalize=t.boolean("orthonormalize", d.orthonormalize),
     )
     t.finish()
     return cfg

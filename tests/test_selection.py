@@ -119,8 +119,8 @@ def test_selection_is_invariant_under_rotation_and_translation_of_the_mesh(squar
 @pytest.mark.parametrize("table, key", [
     ({"cosine_tolerance": -1e-3}, "cosine_tolerance"),
     ({"svd_tolerance": 0.9}, "svd_tolerance"),
-    ({"weighting": "l1"}, "weighting"),
-    ({"orthonormalise": True}, "orthonormalise"),
+    ({"svd_tolerance": "tight"}, "svd_tolerance"),
+    ({"cosine_tol": 1e-3}, "cosine_tol"),
 ])
 def test_bad_selection_table_names_the_key(table, key):
     with pytest.raises(ConfigError, match=rf"\[selection\] {key} ="):
