@@ -1,8 +1,10 @@
-"""The body's dolfinx mesh: reading a Gmsh file on one or more ranks, and its mass properties.
+"""The body's dolfinx mesh: reading a Gmsh file on one or more ranks, and the record of its
+mass properties.
 
 The geometry kernel's mass properties (``geometry.MeshInfo.mass_properties``) are of the
-CAD; the ones here are integrated over the mesh the finite elements actually see, so
-comparing the two checks the mesh (curved order-2 cells included).
+CAD; :class:`MassProperties` built by ``fe.mass_properties`` are integrated over the mesh
+the finite elements actually see, so comparing the two checks the mesh (curved order-2
+cells included).
 """
 from __future__ import annotations
 
