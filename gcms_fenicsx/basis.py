@@ -18,7 +18,7 @@ import numpy as np
 from mpi4py import MPI
 
 from gcms_fenicsx.eigen import Modes
-from gcms_fenicsx.fe import FEModel, mass_properties, mat_dense
+from gcms_fenicsx.fe import FEModel, gram, mat_dense
 
 RIGID_FIELDS = ("1", "X", "Y", "Z")
 AXES = "xyz"
@@ -57,7 +57,7 @@ def field_names(mode_count: int) -> tuple[str, ...]:
 
 def field_basis(model: FEModel, modes: Modes) -> FieldBasis:
     """F from the undeformed node coordinates and the elastic mode shapes (eqs. (1)–(3) as fields)."""
-    center = mass_properties(model.Ms, model.nodes, model.material.rho).center_of_mass_m
+    center = modes.center_m
     shapes = modes.elastic_vectors  # (3 n_owned, Nm), node-major
     n = model.nodes.shape[0]
     mode_fields = shapes.reshape(n, 3, -1).transpose(0, 2, 1).reshape(n, -1)  # (n, Nm·3): m, k
@@ -65,8 +65,8 @@ def field_basis(model: FEModel, modes: Modes) -> FieldBasis:
     MsF = mat_dense(model.Ms, F)
     comm = model.comm
     return FieldBasis(fields=F, names=field_names(shapes.shape[1]),
-                      gram_mass=_sym(comm.allreduce(F.T @ MsF, op=MPI.SUM)),
-                      gram_euclid=_sym(comm.allreduce(F.T @ F, op=MPI.SUM)),
+                      gram_mass=_sym(gram(comm, F, MsF)),
+                      gram_euclid=_sym(gram(comm, F, F)),
                       center_m=center, mode_count=shapes.shape[1])
 
 

@@ -8,27 +8,27 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+import numpy as np
 from mpi4py import MPI
+from petsc4py import PETSc
 
 from gcms_fenicsx import eigen, fe
 from gcms_fenicsx.config import StudyConfig, load_config
 from gcms_fenicsx.mesh import read_mesh
 from gcms_fenicsx.modes_io import frequency_table, modes_report, write_mode_shapes
 from gcms_fenicsx.outputs import staged_output, write_json
-from gcms_fenicsx.pipeline import Progress, mesh_report, mesh_stage, progress_printer
+from gcms_fenicsx.pipeline import MeshStage, mesh_report, mesh_stage, progress_printer
 
 
-def _mesh_files(cfg: StudyConfig, folder: Path, progress: Progress, comm: MPI.Comm):
-    """Mesh stage plus the mesh's own mass properties; writes mesh.msh and mesh.json."""
-    stage = mesh_stage(cfg, folder, progress, comm)
-    body = read_mesh(stage.msh_path, stage.info.groups, comm)
+def _write_mesh_json(cfg: StudyConfig, folder: Path, stage: MeshStage, Ms: PETSc.Mat,
+                     nodes: np.ndarray, rho: float, comm: MPI.Comm) -> dict:
+    """mesh.json, with the mesh's own mass properties from the scalar mass matrix Ms (density rho)."""
     t0 = time.perf_counter()
-    Ms, nodes = fe.assemble_scalar_mass(body.mesh)
-    mass = fe.mass_properties(Ms, nodes, 1.0)
+    mass = fe.mass_properties(Ms, nodes, rho)
     report = mesh_report(cfg, stage, mass.to_json(), time.perf_counter() - t0)
     if comm.rank == 0:
         write_json(folder / "mesh.json", report)
-    return stage, body, report
+    return report
 
 
 def _mesh_summary(report: dict) -> str:
@@ -46,7 +46,10 @@ def mesh(config: Path | None, out: Path) -> str:
     cfg = load_config(config)
     comm = MPI.COMM_WORLD
     with staged_output(out, comm) as folder:
-        _, _, report = _mesh_files(cfg, folder, progress_printer(comm), comm)
+        stage = mesh_stage(cfg, folder, progress_printer(comm), comm)
+        body = read_mesh(stage.msh_path, stage.info.groups, comm)
+        Ms, nodes = fe.assemble_scalar_mass(body.mesh)
+        report = _write_mesh_json(cfg, folder, stage, Ms, nodes, 1.0, comm)
     return _mesh_summary(report)
 
 
@@ -56,12 +59,15 @@ def modes(config: Path | None, out: Path) -> str:
     comm = MPI.COMM_WORLD
     progress = progress_printer(comm)
     with staged_output(out, comm) as folder:
-        stage, body, mesh_json = _mesh_files(cfg, folder, progress, comm)
+        stage = mesh_stage(cfg, folder, progress, comm)
+        body = read_mesh(stage.msh_path, stage.info.groups, comm)
         t0 = time.perf_counter()
         model = fe.assemble(body.mesh, cfg.material)
         timings = {"geometry_and_mesh": stage.wall_time_s,
                    "assembly": time.perf_counter() - t0}
         progress(f"assembled K, M: {model.ndofs} DOFs")
+        mesh_json = _write_mesh_json(cfg, folder, stage, model.Ms, model.nodes,
+                                     cfg.material.rho, comm)
         result = eigen.solve_free_free(model, cfg.modes, progress)
         t0 = time.perf_counter()
         write_mode_shapes(model, result, folder / "mode_shapes" / "modes.pvd")

@@ -30,7 +30,7 @@ from petsc4py import PETSc
 from slepc4py import SLEPc
 
 from gcms_fenicsx.modes_config import ModesConfig
-from gcms_fenicsx.fe import FEModel, mass_properties, mat_dense
+from gcms_fenicsx.fe import FEModel, gram, mass_properties, mat_dense
 
 #: Largest admissible rigid-body content ‖Rᵀ M φ‖²/‖φ‖²_M of an elastic mode.
 RIGID_CONTENT_LIMIT = 1e-8
@@ -64,6 +64,7 @@ class Modes:
     rigid_fractions: np.ndarray
     inertia_count: int
     shift: float
+    center_m: np.ndarray  # centre of mass the rotation fields are taken about
     timings_s: dict[str, float] = field(default_factory=dict)
 
     @property
@@ -121,11 +122,6 @@ def rigid_body_fields(nodes: np.ndarray, center: np.ndarray) -> np.ndarray:
     return out.reshape(3 * n, 6)
 
 
-def _gram(comm: MPI.Comm, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
-    """Xᵀ Y summed over ranks (owned rows only)."""
-    return comm.allreduce(X.T @ Y, op=MPI.SUM)
-
-
 def ritz_first_elastic(model: FEModel, center: np.ndarray) -> float:
     """Seventh Rayleigh–Ritz value of (K, M) on the quadratic polynomial displacements.
 
@@ -139,8 +135,8 @@ def ritz_first_elastic(model: FEModel, center: np.ndarray) -> float:
     poly = np.column_stack([np.ones(len(s)), s, s ** 2, s[:, 0] * s[:, 1], s[:, 1] * s[:, 2],
                             s[:, 2] * s[:, 0]])
     basis = np.kron(poly, np.eye(3))
-    Kq = _gram(comm, basis, mat_dense(model.K, basis))
-    Mq = _gram(comm, basis, mat_dense(model.M, basis))
+    Kq = gram(comm, basis, mat_dense(model.K, basis))
+    Mq = gram(comm, basis, mat_dense(model.M, basis))
     # a coarse mesh may not tell all ten polynomials apart (y² ≡ const on a one-cell P1
     # beam): keep the M-orthonormal directions Mq does resolve
     mass, vecs = np.linalg.eigh(0.5 * (Mq + Mq.T))
@@ -188,7 +184,7 @@ def inertia_below(model: FEModel, sigma: float) -> int:
 
 def m_orthonormal(comm: MPI.Comm, X: np.ndarray, M: PETSc.Mat) -> np.ndarray:
     """X L⁻ᵀ with Xᵀ M X = L Lᵀ: an M-orthonormal basis of span(X) (Cholesky–Gram–Schmidt)."""
-    chol = np.linalg.cholesky(_gram(comm, X, mat_dense(M, X)))
+    chol = np.linalg.cholesky(gram(comm, X, mat_dense(M, X)))
     return scipy.linalg.solve_triangular(chol, X.T, lower=True).T
 
 
@@ -293,11 +289,11 @@ def solve_free_free(model: FEModel, cfg: ModesConfig,
     vectors = np.hstack([rigid, elastic])
     M_vectors = mat_dense(model.M, vectors)
     K_vectors = mat_dense(model.K, vectors)
-    values = np.concatenate([np.diag(_gram(comm, rigid, K_vectors[:, :6])),
+    values = np.concatenate([np.diag(gram(comm, rigid, K_vectors[:, :6])),
                              values[order[:wanted]]])
     # content of each mode in the rigid subspace: ‖Rᵀ M φ‖² / ‖φ‖²_M (R M-orthonormal)
-    rigid_fractions = (np.sum(_gram(comm, rigid, M_vectors) ** 2, axis=0)
-                       / np.diag(_gram(comm, vectors, M_vectors)))
+    rigid_fractions = (np.sum(gram(comm, rigid, M_vectors) ** 2, axis=0)
+                       / np.diag(gram(comm, vectors, M_vectors)))
     res = K_vectors - M_vectors * values
     res_norm = np.sqrt(comm.allreduce(np.sum(res ** 2, axis=0), op=MPI.SUM))
     k_norm = np.sqrt(comm.allreduce(np.sum(K_vectors ** 2, axis=0), op=MPI.SUM))
@@ -305,7 +301,7 @@ def solve_free_free(model: FEModel, cfg: ModesConfig,
     lam_ref = values[6]
     # elastic: ‖Kφ − λMφ‖/‖Kφ‖; rigid (Kφ ≈ 0): ‖Kφ − λMφ‖/(λ₇‖Mφ‖)
     residuals = np.where(np.arange(total) < 6, res_norm / (lam_ref * m_norm), res_norm / k_norm)
-    ortho = float(np.abs(_gram(comm, vectors, M_vectors) - np.eye(total)).max())
+    ortho = float(np.abs(gram(comm, vectors, M_vectors) - np.eye(total)).max())
     timings["verification"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
@@ -316,6 +312,7 @@ def solve_free_free(model: FEModel, cfg: ModesConfig,
     modes = Modes(eigenvalues=values, vectors=vectors, rigid_count=6,
                   relative_residuals=residuals, orthonormality_error=ortho,
                   rigid_fractions=rigid_fractions, inertia_count=inertia, shift=sigma,
+                  center_m=center,
                   timings_s=timings)
     residual_limit = max(1e-6, 1e3 * cfg.tolerance)
     problems = []

@@ -48,10 +48,7 @@ def classify(model: fe.FEModel, modes: eigen.Modes) -> list[str]:
 
 
 def _ms(model: fe.FEModel, values: np.ndarray) -> np.ndarray:
-    x, y = model.Ms.createVecs()
-    x.array[:] = values
-    model.Ms.mult(x, y)
-    return y.array.copy()
+    return fe.mat_dense(model.Ms, values[:, None])[:, 0]
 
 
 def _solve(tmp_path, geometry: dict, mesh_table: dict | None = None):
