@@ -30,6 +30,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="SUBCOMMAND")
     _common(sub.add_parser("mesh", help="build and mesh the geometry: mesh.msh, mesh.json"))
     _common(sub.add_parser("modes", help="free-free modes: modes.json, mode_shapes/modes.pvd"))
+    _common(sub.add_parser("reduce", help="GCMS selection and reduced model: reduced.h5, "
+                           "selection.json"))
     _common(sub.add_parser("run", help="every stage, on CONFIG or the built-in default"),
             config_required=False)
     return parser
@@ -40,6 +42,7 @@ def main(argv: list[str] | None = None) -> int:
     logging.disable(logging.INFO)  # the JIT's C build logs every compiler call at INFO
     from gcms_fenicsx import commands  # heavy imports (dolfinx, PETSc) only once a command runs
     from gcms_fenicsx.eigen import EigenSolveError
+    from gcms_fenicsx.reduce import ReductionError
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD
@@ -50,7 +53,7 @@ def main(argv: list[str] | None = None) -> int:
         if comm.rank == 0:
             print(f"gcms {args.command}: error: {exc}", file=sys.stderr)
         return 2
-    except EigenSolveError as exc:
+    except (EigenSolveError, ReductionError) as exc:
         if comm.rank == 0:
             print(f"gcms {args.command}: failed: {exc}", file=sys.stderr)
         return 1

@@ -19,10 +19,11 @@ from geometry import BeamParams, CrankshaftParams, MeshParams, parse_geometry, p
 
 from gcms_fenicsx.material import Material, parse_material
 from gcms_fenicsx.modes_config import ModesConfig, parse_modes
+from gcms_fenicsx.selection import SelectionConfig, parse_selection
 from gcms_fenicsx.validation import ConfigError
 
 #: Tables a study file may contain, in pipeline order.
-KNOWN_TABLES = ("geometry", "mesh", "material", "modes")
+KNOWN_TABLES = ("geometry", "mesh", "material", "modes", "selection")
 
 
 @dataclass(frozen=True)
@@ -31,6 +32,7 @@ class StudyConfig:
     mesh: MeshParams
     material: Material = field(default_factory=Material)
     modes: ModesConfig = field(default_factory=ModesConfig)
+    selection: SelectionConfig = field(default_factory=SelectionConfig)
     source: str = "<built-in default>"
 
     def digest(self, *tables: str) -> str:
@@ -52,6 +54,7 @@ def parse_config(raw: Mapping[str, Any], source: str = "<dict>") -> StudyConfig:
         mesh=parse_mesh(raw.get("mesh"), geom),
         material=parse_material(raw.get("material")),
         modes=parse_modes(raw.get("modes")),
+        selection=parse_selection(raw.get("selection")),
         source=source,
     )
 

@@ -29,6 +29,7 @@ class FEModel:
     """
 
     V: fem.FunctionSpace
+    Vs: fem.FunctionSpace  # the scalar space of Ms, same nodes
     K: PETSc.Mat
     M: PETSc.Mat
     Ms: PETSc.Mat
@@ -98,7 +99,7 @@ def assemble(mesh, material: Material, degree: int | None = None) -> FEModel:
     V = fem.VectorFunctionSpace(mesh, ("CG", degree or mesh.geometry.cmap.degree))
     Vs, _ = V.sub(0).collapse()
     a, m = elasticity_forms(V, material)
-    return FEModel(V=V, K=_assembled(a), M=_assembled(m),
+    return FEModel(V=V, Vs=Vs, K=_assembled(a), M=_assembled(m),
                    Ms=_assembled(scalar_mass_form(Vs, material.rho)), nodes=owned_nodes(Vs),
                    material=material)
 

@@ -13,8 +13,11 @@ rotation. The four rigid fields 1, X, Y, Z are never dropped.
    The number of σ ≥ svd_tolerance · σ_max is the rank r; pivoted Cholesky of the scaled
    Gram matrix (rigid fields first) picks which r fields stay; each dropped field is
    reported with its relative residual after the kept ones.
+3. Optionally (``orthonormalize``) the kept flexible fields are M-orthonormalised against
+   the rigid fields and each other (the "preconditioned" basis): Mr becomes
+   block-diagonal, the rigid block untouched and the flexible block the identity.
 
-The caller passes the Gram matrix of its choice: G = Fᵀ Ms F (mass-weighted) or FᵀF.
+``weighting`` picks the Gram matrix the tests run on: G = Fᵀ Ms F (mass) or FᵀF (euclidean).
 """
 from __future__ import annotations
 
@@ -34,6 +37,12 @@ class SelectionConfig:
 
     cosine_tolerance: float = 1e-6
     svd_tolerance: float = 1e-6
+    weighting: str = "mass"
+    orthonormalize: bool = True
+
+    def to_json(self) -> dict:
+        return {"cosine_tolerance": self.cosine_tolerance, "svd_tolerance": self.svd_tolerance,
+                "weighting": self.weighting, "orthonormalize": self.orthonormalize}
 
 
 def parse_selection(raw: Mapping[str, Any] | None) -> SelectionConfig:
@@ -42,6 +51,8 @@ def parse_selection(raw: Mapping[str, Any] | None) -> SelectionConfig:
     cfg = SelectionConfig(
         cosine_tolerance=t.number("cosine_tolerance", d.cosine_tolerance, low=0.0, high=0.5),
         svd_tolerance=t.number("svd_tolerance", d.svd_tolerance, low=0.0, high=0.5),
+        weighting=t.choice("weighting", ("mass", "euclidean"), d.weighting),
+        orthonormalize=t.boolean("orthonormalize", d.orthonormalize),
     )
     t.finish()
     return cfg
@@ -136,16 +147,44 @@ def _pivoted_cholesky(A: np.ndarray, forced: int, steps: int) -> tuple[np.ndarra
     return np.array(order + rest), np.diag(R).copy()
 
 
-def conditioning(gram_mass: np.ndarray, gram_euclid: np.ndarray, kept: np.ndarray) -> dict:
+def orthonormalizing_transform(gram_kept: np.ndarray) -> np.ndarray:
+    """T with Tᵀ G T = blockdiag(G_rr', I): the preconditioned basis F' = F T (Φ' = Φ (T ⊗ I3)).
+
+    Flexible fields: M-orthogonalised against the rigid ones (F_f − F_r G_rr⁻¹ G_rf), then
+    orthonormalised (L⁻ᵀ with L Lᵀ = G_ff − G_fr G_rr⁻¹ G_rf). Rigid fields: 1 scaled to unit
+    mass and X, Y, Z by one common factor to unit trace of their block, so G_rr' has
+    eigenvalues 1 and J_k / tr J (principal second moments): cond(Mr) ≈ tr J / J_min, set by
+    the body's shape instead of its size and units. The common factor keeps the span closed
+    under rotation and leaves R of the polar decomposition of the X, Y, Z block unchanged.
+    """
+    n = gram_kept.shape[0]
+    G_rr, G_rf = gram_kept[:RIGID, :RIGID], gram_kept[:RIGID, RIGID:]
+    project = np.linalg.solve(G_rr, G_rf)
+    schur = gram_kept[RIGID:, RIGID:] - G_rf.T @ project
+    L_inv_T = np.linalg.inv(np.linalg.cholesky(0.5 * (schur + schur.T))).T
+    T = np.eye(n)
+    T[0, 0] = 1.0 / np.sqrt(G_rr[0, 0])
+    T[1:RIGID, 1:RIGID] = np.eye(3) / np.sqrt(np.trace(G_rr[1:, 1:]))
+    T[:RIGID, RIGID:] = -project @ L_inv_T
+    T[RIGID:, RIGID:] = L_inv_T
+    return T
+
+
+def conditioning(gram_mass: np.ndarray, gram_euclid: np.ndarray, T: np.ndarray | None = None,
+                 kept: np.ndarray | None = None) -> dict:
     """cond₂(Φ) = cond₂(F) = √cond(FᵀF) and cond(Mr) = cond(G), before and after selection.
 
-    Φ = F ⊗ I3 has F's singular values, each three times, so no dense Φ is needed.
+    Φ = F ⊗ I3 has F's singular values, each three times, so no dense Φ is needed. "After"
+    is on the kept fields, transformed by T (F' = F_kept T) when given.
     """
     def cond(A: np.ndarray) -> float:
         w = np.linalg.eigvalsh(A)
-        return float(np.inf) if w[0] <= 0 else float(w[-1] / w[0])
+        return float("inf") if w[0] <= 0 else float(w[-1] / w[0])
 
+    kept = np.arange(gram_mass.shape[0]) if kept is None else kept
+    T = np.eye(len(kept)) if T is None else T
     sub = np.ix_(kept, kept)
     return {"cond_phi_before": float(np.sqrt(cond(gram_euclid))),
-            "cond_phi_after": float(np.sqrt(cond(gram_euclid[sub]))),
-            "cond_mr_before": cond(gram_mass), "cond_mr_after": cond(gram_mass[sub])}
+            "cond_phi_after": float(np.sqrt(cond(T.T @ gram_euclid[sub] @ T))),
+            "cond_mr_before": cond(gram_mass),
+            "cond_mr_after": cond(T.T @ gram_mass[sub] @ T)}

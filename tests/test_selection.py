@@ -89,7 +89,7 @@ def test_square_beam_first_bending_pair(square):
     assert 3 * (len(default.kept) - 4) == 15
     lam = _reduced_eigenvalues(model, B, default.kept)
     np.testing.assert_allclose(lam[6:8], modes.elastic_eigenvalues, rtol=1e-4)
-    cond = selection.conditioning(B.gram_mass, B.gram_euclid, default.kept)
+    cond = selection.conditioning(B.gram_mass, B.gram_euclid, kept=default.kept)
     assert cond["cond_mr_after"] < 1e8 < cond["cond_mr_before"]
     assert cond["cond_phi_after"] < cond["cond_phi_before"]
     scipy.linalg.cholesky(basis.reduced_mass(B.gram_mass[np.ix_(default.kept, default.kept)]))

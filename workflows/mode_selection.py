@@ -1,0 +1,209 @@
+"""Mode selection study: what removing dependent GCMS fields does to size, conditioning and accuracy.
+
+For every beam section of the geometry library (1 m steel beams, 10 mm P2 meshes) and the
+default crankshaft, one free-free solve with 20 elastic modes; then, for Nm = 10 and 20,
+the default selection and the preconditioned (M-orthonormalised) variant:
+
+- GCMS columns before and after, cond(Φ) (2-norm, the reference's measure) and cond(Mr)
+  before and after, the pruning error (largest relative error of the lowest Nm elastic
+  frequencies of (Kr, Mr) against the full model), and the time of selection plus
+  reduction beside the eigen-solve's;
+- a tolerance sweep on the square beam and the crankshaft (what looser tolerances buy);
+- a heat map of the mass-weighted cosine-similarity matrix and the singular values of the
+  per-mode-scaled fields, before and after selection.
+
+    python workflows/mode_selection.py [--out docs/mode_selection] [--quick]
+
+writes OUT.json and OUT.png and prints the Markdown table of README.md.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+BEAMS = {
+    "square": {"side": 0.05},
+    "rectangle": {"width": 0.06, "height": 0.03},
+    "circle": {"radius": 0.025},
+    "tube": {"radius": 0.03, "thickness": 0.006},
+    "box": {"width": 0.06, "height": 0.04, "thickness": 0.006},
+    "I": {"width": 0.05, "height": 0.06, "flange_thickness": 0.008, "web_thickness": 0.006},
+    "T": {"width": 0.05, "height": 0.06, "flange_thickness": 0.008, "web_thickness": 0.006},
+    "C": {"width": 0.05, "height": 0.06, "flange_thickness": 0.008, "web_thickness": 0.006},
+    "L": {"width": 0.05, "height": 0.04, "thickness": 0.008},
+    # no symmetry at all: an irregular pentagon
+    "polygon": {"vertices": [[0.0, 0.0], [0.055, 0.004], [0.048, 0.03], [0.02, 0.045],
+                             [-0.006, 0.022]]},
+}
+MODE_COUNTS = (10, 20)
+SWEEP = (1e-10, 1e-8, 1e-6, 1e-4, 1e-3, 1e-2)
+
+
+def studies(quick: bool) -> dict[str, dict]:
+    """Study tables (as in a TOML file) by case name."""
+    cases = {name: {"geometry": {"kind": "beam", "section": name, "length": 1.0, **dims},
+                    "mesh": {"size": 0.01, "order": 2}}
+             for name, dims in BEAMS.items()}
+    cases["crankshaft"] = {"geometry": {"kind": "crankshaft"}, "mesh": {"order": 2}}
+    if quick:
+        cases = {k: cases[k] for k in ("square", "polygon")}
+    for table in cases.values():
+        table["modes"] = {"count": max(MODE_COUNTS)}
+    return cases
+
+
+def truncate(modes, nm: int):
+    """The same solve's lowest nm elastic modes (the rigid six and nm columns)."""
+    from dataclasses import replace
+    keep = 6 + nm
+    return replace(modes, eigenvalues=modes.eigenvalues[:keep], vectors=modes.vectors[:, :keep],
+                   relative_residuals=modes.relative_residuals[:keep],
+                   rigid_fractions=modes.rigid_fractions[:keep])
+
+
+def run_case(name: str, table: dict, folder: Path) -> dict:
+    from gcms_fenicsx import basis, eigen, fe, selection
+    from gcms_fenicsx.config import parse_config
+    from gcms_fenicsx.mesh import read_mesh
+    from gcms_fenicsx.reduce import ReductionError, reduce_body
+    from geometry import build_msh
+
+    cfg = parse_config(table, name)
+    info = build_msh(cfg.geometry, cfg.mesh, folder / f"{name}.msh")
+    body = read_mesh(folder / f"{name}.msh", info.groups)
+    model = fe.assemble(body.mesh, cfg.material)
+    all_modes = eigen.solve_free_free(model, cfg.modes)
+    stats = {"nodes": info.nodes, "cells": info.cells, "ndofs": model.ndofs}
+    out = {"case": name, "ndofs": model.ndofs, "eigensolve_s": all_modes.timings_s["eigensolve"],
+           "frequencies_hz": all_modes.elastic_frequencies_hz.tolist(), "by_modes": {},
+           "sweep": []}
+    for nm in MODE_COUNTS:
+        modes = truncate(all_modes, nm)
+        row = {}
+        for variant, extra in (("default", {}), ("preconditioned", {"orthonormalize": True})):
+            cfg_v = parse_config({**table, "selection": extra}, name)
+            _, report = reduce_body(model, modes, body, cfg_v, stats)
+            row[variant] = report
+        out["by_modes"][nm] = row
+    if name in ("square", "crankshaft"):
+        modes = truncate(all_modes, 10)
+        fields = basis.field_basis(model, modes)
+        out["cosine"] = selection.cosine_matrix(fields.gram_mass).tolist()
+        out["field_names"] = list(fields.names)
+        for tol in SWEEP:
+            cfg_t = parse_config({**table, "selection": {"cosine_tolerance": tol,
+                                                         "svd_tolerance": tol}}, name)
+            try:
+                _, report = reduce_body(model, modes, body, cfg_t, stats)
+            except ReductionError as exc:  # a too-tight tolerance leaves Mr singular: data
+                out["sweep"].append({"tolerance": tol, "error": str(exc)})
+                continue
+            out["sweep"].append({"tolerance": tol, "columns_after": report["columns_after"],
+                                 "cond_phi_after": report["cond_phi_after"],
+                                 "cond_mr_after": report["cond_mr_after"],
+                                 "max_rel_frequency_error": report["max_rel_frequency_error"]})
+        sel = selection.select_fields(fields.gram_mass, cfg.selection, fields.names)
+        out["singular_values_before"] = selection.select_fields(
+            fields.gram_mass, selection.SelectionConfig(0.0, 0.0), fields.names
+        ).singular_values.tolist()
+        out["singular_values_after"] = _scaled_singular_values(fields.gram_mass, sel.kept)
+    return out
+
+
+def _scaled_singular_values(gram: np.ndarray, kept: np.ndarray) -> list[float]:
+    from gcms_fenicsx.selection import mode_scales
+    scale = mode_scales(gram)[kept]
+    sub = gram[np.ix_(kept, kept)] * np.outer(scale, scale)
+    return np.sqrt(np.clip(np.linalg.eigvalsh(sub)[::-1], 0, None)).tolist()
+
+
+def table(results: list[dict]) -> str:
+    head = ("| case | Nm | DOFs | columns before → after | cond(Φ) before → after "
+            "| cond(Mr) before → after | cond(Mr) preconditioned | pruning error "
+            "| selection + reduction s | / eigen-solve |")
+    lines = [head, "|" + "---|" * 10]
+    for r in results:
+        for nm, row in r["by_modes"].items():
+            d, p = row["default"], row["preconditioned"]
+            t = d["timings_s"]["selection_and_reduction"]
+            lines.append(
+                f"| {r['case']} | {nm} | {r['ndofs']:,} | {d['columns_before']} → "
+                f"{d['columns_after']} | {d['cond_phi_before']:.1e} → {d['cond_phi_after']:.1e} "
+                f"| {d['cond_mr_before']:.1e} → {d['cond_mr_after']:.1e} "
+                f"| {p['cond_mr_after']:.1e} | {d['max_rel_frequency_error']:.1e} "
+                f"| {t:.2f} | {t / r['eigensolve_s']:.1%} |")
+    return "\n".join(lines)
+
+
+def sweep_table(results: list[dict]) -> str:
+    lines = ["| case (Nm = 10) | tolerance | columns after | cond(Φ) after | cond(Mr) after "
+             "| pruning error |", "|---|---|---|---|---|---|"]
+    for r in results:
+        for s in r["sweep"]:
+            if "error" in s:
+                lines.append(f"| {r['case']} | {s['tolerance']:.0e} | failed: {s['error'][:60]} "
+                             "| | | |")
+            else:
+                lines.append(f"| {r['case']} | {s['tolerance']:.0e} | {s['columns_after']} "
+                             f"| {s['cond_phi_after']:.1e} | {s['cond_mr_after']:.1e} "
+                             f"| {s['max_rel_frequency_error']:.1e} |")
+    return "\n".join(lines)
+
+
+def plot(results: list[dict], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    shown = [r for r in results if "cosine" in r]
+    fig, axes = plt.subplots(len(shown), 2, figsize=(12, 5.2 * len(shown)), squeeze=False)
+    for (ax_c, ax_s), r in zip(axes, shown):
+        C = np.abs(np.array(r["cosine"]))
+        im = ax_c.imshow(C, cmap="magma", vmin=0, vmax=1)
+        ticks = range(0, len(r["field_names"]), 3)
+        ax_c.set_xticks(list(ticks), [r["field_names"][i] for i in ticks], rotation=90,
+                        fontsize=7)
+        ax_c.set_yticks(list(ticks), [r["field_names"][i] for i in ticks], fontsize=7)
+        ax_c.set_title(f"{r['case']}, Nm = 10: |mass-weighted cosine similarity| of the fields")
+        fig.colorbar(im, ax=ax_c, fraction=0.046)
+        ax_s.semilogy(r["singular_values_before"], "o-", ms=3, label="all fields")
+        ax_s.semilogy(r["singular_values_after"], "s-", ms=3, label="after default selection")
+        ax_s.set_title(f"{r['case']}: singular values of the per-mode-scaled fields")
+        ax_s.set_xlabel("index")
+        ax_s.grid(True, which="both", alpha=0.3)
+        ax_s.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=Path("docs/mode_selection"))
+    parser.add_argument("--quick", action="store_true", help="two beams only (a smoke run)")
+    args = parser.parse_args()
+    logging.disable(logging.INFO)
+    results = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, table_ in studies(args.quick).items():
+            t0 = time.perf_counter()
+            results.append(run_case(name, table_, Path(tmp)))
+            print(f"{name}: {results[-1]['ndofs']} DOFs, {time.perf_counter() - t0:.0f} s",
+                  file=sys.stderr, flush=True)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    Path(f"{args.out}.json").write_text(json.dumps(results, indent=1))
+    plot(results, Path(f"{args.out}.png"))
+    print(table(results))
+    print()
+    print(sweep_table(results))
+
+
+if __name__ == "__main__":
+    main()
