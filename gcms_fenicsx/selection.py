@@ -84,6 +84,17 @@ def mode_scales(gram: np.ndarray) -> np.ndarray:
     return scale
 
 
+def scaled_gram(gram: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """The Gram matrix of fields ``idx`` scaled by :func:`mode_scales` (scales of all fields)."""
+    scale = mode_scales(gram)[idx]
+    return gram[np.ix_(idx, idx)] * np.outer(scale, scale)
+
+
+def scaled_singular_values(gram: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """Singular values of the per-mode-scaled fields ``idx``, descending."""
+    return np.sqrt(np.clip(np.linalg.eigvalsh(scaled_gram(gram, idx))[::-1], 0.0, None))
+
+
 def cosine_matrix(gram: np.ndarray) -> np.ndarray:
     """C = D^-1/2 W D^-1/2 (cosine similarity of the fields in W's inner product)."""
     d = np.sqrt(np.diag(gram))
@@ -105,9 +116,8 @@ def select_fields(gram: np.ndarray, cfg: SelectionConfig, names: tuple[str, ...]
                 break
 
     idx = np.flatnonzero(alive)
-    scale = mode_scales(gram)[idx]
-    scaled = gram[np.ix_(idx, idx)] * np.outer(scale, scale)
-    sigma = np.sqrt(np.clip(np.linalg.eigvalsh(scaled)[::-1], 0.0, None))
+    scaled = scaled_gram(gram, idx)
+    sigma = scaled_singular_values(gram, idx)
     rank = int(np.sum(sigma >= cfg.svd_tolerance * sigma[0]))
     order, residual = _pivoted_cholesky(scaled, forced=min(RIGID, rank), steps=rank)
     keep_local = np.sort(order[:rank])

@@ -110,18 +110,12 @@ def run_case(name: str, table: dict, folder: Path) -> dict:
                                  "cond_mr_after": report["cond_mr_after"],
                                  "max_rel_frequency_error": report["max_rel_frequency_error"]})
         sel = selection.select_fields(fields.gram_mass, cfg.selection, fields.names)
-        out["singular_values_before"] = selection.select_fields(
-            fields.gram_mass, selection.SelectionConfig(0.0, 0.0), fields.names
-        ).singular_values.tolist()
-        out["singular_values_after"] = _scaled_singular_values(fields.gram_mass, sel.kept)
+        every = np.arange(fields.field_count)
+        out["singular_values_before"] = selection.scaled_singular_values(
+            fields.gram_mass, every).tolist()
+        out["singular_values_after"] = selection.scaled_singular_values(
+            fields.gram_mass, sel.kept).tolist()
     return out
-
-
-def _scaled_singular_values(gram: np.ndarray, kept: np.ndarray) -> list[float]:
-    from gcms_fenicsx.selection import mode_scales
-    scale = mode_scales(gram)[kept]
-    sub = gram[np.ix_(kept, kept)] * np.outer(scale, scale)
-    return np.sqrt(np.clip(np.linalg.eigvalsh(sub)[::-1], 0, None)).tolist()
 
 
 def table(results: list[dict]) -> str:
