@@ -67,8 +67,8 @@ def field_basis(model: FEModel, modes: Modes) -> FieldBasis:
     MsF = mat_dense(model.Ms, F)
     comm = model.comm
     return FieldBasis(fields=F, names=field_names(shapes.shape[1]),
-                      gram_mass=_sym(gram(comm, F, MsF)),
-                      gram_euclid=_sym(gram(comm, F, F)),
+                      gram_mass=symmetric(gram(comm, F, MsF)),
+                      gram_euclid=symmetric(gram(comm, F, F)),
                       center_m=center, mode_count=shapes.shape[1])
 
 
@@ -107,8 +107,9 @@ def reduced_stiffness(model: FEModel, fields: np.ndarray) -> np.ndarray:
             local[:, l, :, m] = fields.T @ mat_dense(K_lm, fields)
             local[:, m, :, l] = local[:, l, :, m].T
             K_lm.destroy()
-    return _sym(model.comm.allreduce(local.reshape(3 * nf, 3 * nf), op=MPI.SUM))
+    return symmetric(model.comm.allreduce(local.reshape(3 * nf, 3 * nf), op=MPI.SUM))
 
 
-def _sym(A: np.ndarray) -> np.ndarray:
+def symmetric(A: np.ndarray) -> np.ndarray:
+    """(A + Aᵀ)/2."""
     return 0.5 * (A + A.T)

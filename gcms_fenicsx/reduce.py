@@ -46,7 +46,7 @@ def reduce_body(model: FEModel, modes: Modes, body: BodyMesh, cfg: StudyConfig,
 
     t0 = time.perf_counter()
     F = fields.fields[:, kept] @ T
-    G = T.T @ G_kept @ T
+    G = basis.symmetric(T.T @ G_kept @ T)  # round-off in Tᵀ G T grows with ‖T‖²
     Mr, Kr = basis.reduced_mass(G), basis.reduced_stiffness(model, F)
     # Φᵀ M (1 ⊗ g) = (Fᵀ Ms 1) ⊗ g, and F's first column is T₀₀·1
     gravity = np.kron(G[:, :1] / T[0, 0], np.eye(3))

@@ -1,12 +1,23 @@
 """The reduced GCMS body and its HDF5 file: what a simulation needs, and nothing of the FE model.
 
-This module imports NumPy and h5py only, so the standalone integrator (and anybody else)
-can read ``reduced.h5`` without dolfinx, PETSc or MPI. The writer checks a model before it
-writes, and writes atomically (temporary file, then rename); the reader checks the schema
-version, every dataset and every shape, and says what is wrong with a file that does not fit.
+``gcms reduce`` writes one ``reduced.h5`` per body (DESIGN §4); the standalone integrator
+(DESIGN §5) reads it. This module therefore imports NumPy and h5py only, so the file can be
+read without dolfinx, PETSc, MPI or SciPy.
 
-Coordinates: q is Q read row by row, Q holding one 3-vector per field (DESIGN §2), so a
-node's position is x_i = Σ_f F[i, f] Q[f, :] and a group's is Σ_i w_i x_i.
+The writer validates a model before it writes and writes atomically (a temporary file beside
+the target, then a rename), so a failed or interrupted write leaves the previous file as it
+was. The reader checks the schema version, every dataset and attribute, every shape and
+every value, and raises :class:`ReducedModelError` saying which file and what is wrong.
+
+Coordinates: q is Q read row by row, Q holding one 3-vector per field (DESIGN §2), so node i
+is at x_i = Σ_f F[i, f] Q[f, :] and a node group's mean position is Σ_i w_i x_i; both are
+linear in q.
+
+File layout (schema 1): root attributes ``schema_version`` (int), ``input_hash`` (str) and
+``units``, ``field_names``, ``selection``, ``tolerances``, ``material``, ``mesh`` (JSON
+strings); datasets ``/mass``, ``/stiffness``, ``/gravity``, ``/fields``, ``/nodes_m``,
+``/frequencies_hz``, ``/reduced_frequencies_hz``; and ``/groups/<name>/nodes`` (int64),
+``/groups/<name>/weights`` for every node group.
 """
 from __future__ import annotations
 
@@ -15,35 +26,57 @@ import os
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, NoReturn
 
 import h5py
 import numpy as np
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION: int = 1
+
 _ARRAYS = ("mass", "stiffness", "gravity", "fields", "nodes_m", "frequencies_hz",
            "reduced_frequencies_hz")
-_JSON_ATTRS = ("field_names", "units", "selection", "tolerances", "material", "mesh")
+_NDIM = {"mass": 2, "stiffness": 2, "gravity": 2, "fields": 2, "nodes_m": 2,
+         "frequencies_hz": 1, "reduced_frequencies_hz": 1}
+_DICT_ATTRS = ("units", "selection", "tolerances", "material", "mesh")
+_JSON_ATTRS = ("field_names", *_DICT_ATTRS)
+_SYMMETRY_RTOL = 1e-10  # |A - Aᵀ| relative to max|A|: Kr and Mr are symmetrised when built
+_WEIGHT_SUM_TOL = 1e-9
+# what h5py raises for a truncated or corrupted file, depending on where the damage is
+_H5PY_ERRORS = (OSError, KeyError, RuntimeError, ValueError, TypeError)
 
 
 class ReducedModelError(ValueError):
-    """A reduced-model file (or model) that is missing data, malformed or of a newer schema."""
+    """A reduced-model file or model that is missing data, malformed or of a newer schema."""
 
 
 @dataclass(frozen=True)
 class NodeGroup:
-    """A named node set: global node indices and the weights of its mean position (sum 1)."""
+    """A named node set (joint, load, sensor): node indices and the weights of its mean position.
+
+    ``nodes`` (int64) index the rows of :attr:`ReducedModel.fields` and
+    :attr:`ReducedModel.nodes_m`; ``weights`` (float64, same length, ≥ 0, sum 1) are area
+    weights, so the group's mean position is Σ_i w_i x_i.
+    """
 
     nodes: np.ndarray
     weights: np.ndarray
+
+
+def _default_units() -> dict:
+    return {"length": "m", "mass": "kg", "time": "s", "force": "N"}
 
 
 @dataclass(frozen=True)
 class ReducedModel:
     """Constant reduced matrices of one body, its fields at every node, and their provenance.
 
-    ``mass`` Mr and ``stiffness`` Kr are (n, n) with n = 3·len(field_names); ``gravity``
-    (n, 3) is the generalised force per unit gravity vector g [m/s²]; ``fields`` (N, fields)
-    and ``nodes_m`` (N, 3) are F and the undeformed coordinates at every node.
+    With n = 3·len(field_names): ``mass`` Mr (n, n) is symmetric positive definite,
+    ``stiffness`` Kr (n, n) symmetric, ``gravity`` (n, 3) the generalized force per unit
+    gravity vector g [m/s²] (the force is ``gravity @ g``). ``fields`` F (N, fields) holds the
+    kept scalar fields at every node and ``nodes_m`` (N, 3) the undeformed node coordinates.
+    ``frequencies_hz`` are the full model's elastic frequencies, ``reduced_frequencies_hz``
+    those of (Kr, Mr). ``selection``, ``tolerances``, ``material``, ``mesh`` and ``units``
+    are JSON-able dicts; ``input_hash`` is the sha256 hex digest of every input.
     """
 
     mass: np.ndarray
@@ -60,86 +93,167 @@ class ReducedModel:
     material: dict
     mesh: dict
     input_hash: str
-    units: dict = field(default_factory=lambda: {"length": "m", "mass": "kg", "time": "s",
-                                                 "force": "N"})
+    units: dict = field(default_factory=_default_units)
     schema_version: int = SCHEMA_VERSION
 
     @property
     def dofs(self) -> int:
+        """Number of generalized coordinates n = 3·len(field_names)."""
         return self.mass.shape[0]
 
     def group(self, name: str) -> NodeGroup:
+        """The node group ``name``; ReducedModelError listing the known groups if there is none."""
         if name not in self.groups:
-            raise ReducedModelError(f"no node group {name!r}; the groups are: "
-                                    + ", ".join(sorted(self.groups)))
+            known = ", ".join(sorted(self.groups)) or "(none)"
+            raise ReducedModelError(f"no node group {name!r}; the groups are: {known}")
         return self.groups[name]
 
-    def position(self, q: np.ndarray, name: str) -> np.ndarray:
-        """Mean position Σ_i w_i x_i of group ``name`` for coordinates q (linear in q)."""
-        g = self.group(name)
-        return g.weights @ (self.fields[g.nodes] @ np.asarray(q).reshape(-1, 3))
+    def position(self, q: np.ndarray, group: str) -> np.ndarray:
+        """Mean position Σ_i w_i x_i (3,) of the node group ``group`` at coordinates q."""
+        g = self.group(group)
+        q = np.asarray(q, dtype=float)
+        if q.shape != (self.dofs,):
+            raise ReducedModelError(f"q has shape {q.shape}, expected ({self.dofs},): three "
+                                    f"coordinates for each of {len(self.field_names)} fields")
+        return g.weights @ (self.fields[g.nodes] @ q.reshape(-1, 3))
 
     def undeformed_coordinates(self) -> np.ndarray:
-        """q0 with F Q0 = X (the undeformed nodes), from the four rigid fields alone.
+        """q0 (n,) with F Q0 = nodes_m, from the four rigid fields alone.
 
         The first four fields span {1, x, y, z} (possibly scaled and shifted), so the
-        undeformed body is exactly a combination of them; the flexible rows of Q0 are zero.
+        undeformed body is exactly a combination of them and the flexible rows of Q0 are
+        zero; a least-squares fit over all fields would instead pick up round-off along
+        near-dependent flexible fields, which a preconditioned basis amplifies.
         """
         Q0 = np.zeros((len(self.field_names), 3))
         Q0[:4], *_ = np.linalg.lstsq(self.fields[:, :4], self.nodes_m, rcond=None)
         return Q0.ravel()
 
 
-def check(model: ReducedModel, where: str = "reduced model") -> None:
-    """Raise ReducedModelError naming what is inconsistent (shapes, weights, non-finite values)."""
-    n = 3 * len(model.field_names)
-    expected = {"mass": (n, n), "stiffness": (n, n), "gravity": (n, 3),
-                "fields": (model.nodes_m.shape[0], len(model.field_names)),
-                "nodes_m": (model.fields.shape[0], 3)}
-    for name, shape in expected.items():
-        found = getattr(model, name).shape
-        if found != shape:
-            raise ReducedModelError(f"{where}: /{name} has shape {found}, expected {shape} "
-                                    f"({len(model.field_names)} fields)")
-    if model.reduced_frequencies_hz.shape != model.frequencies_hz.shape:
-        raise ReducedModelError(
-            f"{where}: /reduced_frequencies_hz has shape {model.reduced_frequencies_hz.shape}, "
-            f"expected {model.frequencies_hz.shape} like /frequencies_hz")
+def validate_model(model: ReducedModel, where: str = "reduced model") -> None:
+    """Raise ReducedModelError, prefixed with ``where``, for anything inconsistent in ``model``.
+
+    Checks types, shapes (n = 3·len(field_names)), finiteness, symmetry of Mr and Kr,
+    positive definiteness of Mr and every node group's indices and weights.
+    """
+    def fail(message: str) -> NoReturn:
+        raise ReducedModelError(f"{where}: {message}")
+
+    names = model.field_names
+    if (not isinstance(names, tuple) or not names
+            or not all(isinstance(s, str) for s in names)):
+        fail(f"field_names must be a non-empty tuple of strings, found {names!r}")
+    if len(set(names)) != len(names):
+        fail(f"field_names repeat a name: {list(names)}")
+    version = model.schema_version
+    if not isinstance(version, int) or not 1 <= version <= SCHEMA_VERSION:
+        fail(f"schema_version is {version!r}, expected 1..{SCHEMA_VERSION}")
+    if not isinstance(model.input_hash, str):
+        fail(f"input_hash must be a string, found {type(model.input_hash).__name__}")
+    for name in _DICT_ATTRS:
+        if not isinstance(getattr(model, name), dict):
+            fail(f"{name} must be a dict, found {type(getattr(model, name)).__name__}")
+
     for name in _ARRAYS:
-        if not np.all(np.isfinite(getattr(model, name))):
-            raise ReducedModelError(f"{where}: /{name} holds non-finite values")
+        a = getattr(model, name)
+        if not isinstance(a, np.ndarray) or a.dtype.kind not in "fiu":
+            found = a.dtype if isinstance(a, np.ndarray) else type(a).__name__
+            fail(f"/{name} must be an array of real numbers, found {found}")
+        if a.ndim != _NDIM[name]:
+            fail(f"/{name} has shape {a.shape}, expected {_NDIM[name]} dimensions")
+        if not np.all(np.isfinite(a)):
+            fail(f"/{name} holds {np.count_nonzero(~np.isfinite(a))} non-finite values")
+
+    n = 3 * len(names)
+    mass, nf = model.mass, len(names)
+    if mass.shape[0] != mass.shape[1]:
+        fail(f"/mass is not square: shape {mass.shape}")
+    if mass.shape != (n, n):
+        fail(f"/mass has shape {mass.shape}, expected ({n}, {n}): three coordinates for each "
+             f"of {nf} fields {list(names)}")
+    if model.stiffness.shape != mass.shape:
+        fail(f"/stiffness has shape {model.stiffness.shape}, expected {mass.shape} like /mass")
+    if model.gravity.shape != (n, 3):
+        fail(f"/gravity has shape {model.gravity.shape}, expected ({n}, 3)")
+    if model.fields.shape[1] != nf:
+        fail(f"/fields has shape {model.fields.shape}, expected ({model.fields.shape[0]}, "
+             f"{nf}): one column per field name")
+    if model.nodes_m.shape != (model.fields.shape[0], 3):
+        fail(f"/nodes_m has shape {model.nodes_m.shape}, expected ({model.fields.shape[0]}, 3): "
+             f"one row per row of /fields")
+    for name in ("mass", "stiffness"):
+        a = getattr(model, name)
+        asym = np.max(np.abs(a - a.T), initial=0.0)
+        if asym > _SYMMETRY_RTOL * np.max(np.abs(a), initial=0.0):
+            fail(f"/{name} is not symmetric: max |A - Aᵀ| = {asym:.3e}")
+    try:
+        np.linalg.cholesky(mass)
+    except np.linalg.LinAlgError:
+        fail("/mass is not positive definite (Cholesky fails)")
+
+    n_nodes = model.fields.shape[0]
     for name, g in model.groups.items():
-        if g.nodes.shape != g.weights.shape or g.nodes.ndim != 1:
-            raise ReducedModelError(f"{where}: group {name!r} has {g.nodes.shape} nodes but "
-                                    f"{g.weights.shape} weights")
-        if len(g.nodes) and (g.nodes.min() < 0 or g.nodes.max() >= model.fields.shape[0]):
-            raise ReducedModelError(f"{where}: group {name!r} refers to nodes outside "
-                                    f"0..{model.fields.shape[0] - 1}")
-        if np.any(g.weights < 0) or abs(g.weights.sum() - 1.0) > 1e-9:
-            raise ReducedModelError(f"{where}: group {name!r} weights must be >= 0 and sum to "
-                                    f"1 (sum {g.weights.sum():.12g})")
+        where_g = f"/groups/{name}"
+        if not isinstance(name, str) or not name or "/" in name or name == ".":
+            fail(f"group name {name!r} must be a non-empty string without '/'")
+        if not isinstance(g.nodes, np.ndarray) or g.nodes.dtype.kind not in "iu":
+            found = g.nodes.dtype if isinstance(g.nodes, np.ndarray) else type(g.nodes).__name__
+            fail(f"{where_g}/nodes must be an integer array, found {found}")
+        if not isinstance(g.weights, np.ndarray) or g.weights.dtype.kind not in "fiu":
+            fail(f"{where_g}/weights must be an array of real numbers")
+        if g.nodes.ndim != 1 or g.nodes.size == 0 or g.weights.shape != g.nodes.shape:
+            fail(f"{where_g} has nodes of shape {g.nodes.shape} and weights of shape "
+                 f"{g.weights.shape}, expected two non-empty vectors of the same length")
+        outside = g.nodes[(g.nodes < 0) | (g.nodes >= n_nodes)]
+        if outside.size:
+            fail(f"{where_g}/nodes refers to node {outside[0]}, outside 0..{n_nodes - 1}")
+        if not np.all(np.isfinite(g.weights)):
+            fail(f"{where_g}/weights holds non-finite values")
+        if np.any(g.weights < 0):
+            fail(f"{where_g}/weights must be >= 0, found {g.weights.min():.6g}")
+        total = float(g.weights.sum())
+        if abs(total - 1.0) > _WEIGHT_SUM_TOL:
+            fail(f"{where_g}/weights must sum to 1 (within {_WEIGHT_SUM_TOL:g}), found "
+                 f"{total:.12g}")
+
+
+def _json_attributes(model: ReducedModel) -> dict[str, str]:
+    """The model's JSON attributes as strings; ReducedModelError if one is not JSON-able."""
+    out = {}
+    for name in _JSON_ATTRS:
+        value = getattr(model, name)
+        try:
+            out[name] = json.dumps(list(value) if name == "field_names" else value)
+        except (TypeError, ValueError) as exc:
+            raise ReducedModelError(f"reduced model: {name} is not JSON-serializable: "
+                                    f"{exc}") from exc
+    return out
 
 
 def write_reduced(path: str | Path, model: ReducedModel) -> None:
-    """Check the model, then write it atomically: a temporary file beside ``path``, then rename."""
+    """Validate ``model``, then write it to ``path`` atomically (temporary file, then rename).
+
+    Nothing is written for an invalid model; on any failure, including an interrupt, the
+    temporary file is removed and a previous file at ``path`` is left untouched.
+    """
     path = Path(path)
-    check(model)
+    validate_model(model)
+    attributes = _json_attributes(model)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
     try:
+        os.fchmod(fd, 0o644)
+        os.close(fd)
         with h5py.File(tmp, "w") as f:
-            f.attrs["schema_version"] = model.schema_version
+            f.attrs["schema_version"] = SCHEMA_VERSION
             f.attrs["input_hash"] = model.input_hash
-            for name in _JSON_ATTRS:
-                value = getattr(model, name)
-                f.attrs[name] = json.dumps(list(value) if name == "field_names" else value)
+            for name, text in attributes.items():
+                f.attrs[name] = text
             for name in _ARRAYS:
-                f.create_dataset(name, data=getattr(model, name))
+                f.create_dataset(name, data=np.asarray(getattr(model, name), dtype=np.float64))
             groups = f.create_group("groups")
             for name, g in model.groups.items():
                 groups.create_dataset(f"{name}/nodes", data=g.nodes.astype(np.int64))
-                groups.create_dataset(f"{name}/weights", data=g.weights)
-        os.chmod(tmp, 0o644)
+                groups.create_dataset(f"{name}/weights", data=g.weights.astype(np.float64))
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -147,32 +261,94 @@ def write_reduced(path: str | Path, model: ReducedModel) -> None:
 
 
 def read_reduced(path: str | Path) -> ReducedModel:
-    """Read and check a reduced-model file; ReducedModelError says what does not fit."""
+    """Read and validate a reduced-model file; ReducedModelError names the path and the problem."""
     path = Path(path)
+    if not path.is_file():
+        raise ReducedModelError(f"{path}: " + ("not a file" if path.exists() else "no such file"))
     try:
         f = h5py.File(path, "r")
-    except (OSError, ValueError) as exc:
-        raise ReducedModelError(f"{path}: not a readable HDF5 file (truncated or not HDF5?): "
+    except _H5PY_ERRORS as exc:
+        raise ReducedModelError(f"{path}: not a readable HDF5 file (not HDF5, or truncated): "
                                 f"{exc}") from exc
     with f:
-        if "schema_version" not in f.attrs:
-            raise ReducedModelError(f"{path}: no schema_version: not a gcms reduced model")
-        version = int(f.attrs["schema_version"])
-        if version > SCHEMA_VERSION:
-            raise ReducedModelError(f"{path}: written by a newer gcms-fenicsx: schema {version}, "
-                                    f"this reader understands up to {SCHEMA_VERSION}")
         try:
-            arrays = {name: np.asarray(f[name][()], dtype=float) for name in _ARRAYS}
-            attrs = {name: json.loads(f.attrs[name]) for name in _JSON_ATTRS}
-            groups = {name: NodeGroup(nodes=np.asarray(g["nodes"][()], dtype=np.int64),
-                                      weights=np.asarray(g["weights"][()], dtype=float))
-                      for name, g in f["groups"].items()}
-            input_hash = str(f.attrs["input_hash"])
-        except KeyError as exc:
-            raise ReducedModelError(f"{path}: missing dataset or attribute: {exc}") from exc
-        except (OSError, json.JSONDecodeError) as exc:
-            raise ReducedModelError(f"{path}: damaged content: {exc}") from exc
-    model = ReducedModel(**arrays, field_names=tuple(attrs.pop("field_names")), groups=groups,
-                         input_hash=input_hash, schema_version=version, **attrs)
-    check(model, str(path))
+            model = _read_open(f, str(path))
+        except ReducedModelError:
+            raise
+        except _H5PY_ERRORS as exc:
+            raise ReducedModelError(f"{path}: damaged HDF5 content: {exc}") from exc
+    validate_model(model, str(path))
     return model
+
+
+def _read_open(f: h5py.File, where: str) -> ReducedModel:
+    """The model in the open file ``f``, after checking its schema and that nothing is missing."""
+    def fail(message: str) -> NoReturn:
+        raise ReducedModelError(f"{where}: {message}")
+
+    if "schema_version" not in f.attrs:
+        fail("no schema_version attribute: not a gcms-fenicsx reduced model")
+    version = np.asarray(f.attrs["schema_version"])
+    if version.shape != () or version.dtype.kind not in "iu":
+        fail(f"schema_version is {version!r}, expected an integer")
+    version = int(version)
+    if version > SCHEMA_VERSION:
+        fail(f"written by a newer gcms-fenicsx: schema {version}, this reader understands up "
+             f"to {SCHEMA_VERSION}")
+    if version < 1:
+        fail(f"unknown schema_version {version}")
+
+    missing = [f"attribute {name}" for name in ("input_hash", *_JSON_ATTRS)
+               if name not in f.attrs]
+    missing += [f"dataset /{name}" for name in _ARRAYS if name not in f]
+    missing += ["group /groups"] if "groups" not in f else []
+    if missing:
+        fail("missing " + ", ".join(missing))
+    if not isinstance(f["groups"], h5py.Group):
+        fail("/groups is not a group")
+
+    attrs: dict[str, Any] = {}
+    for name in _JSON_ATTRS:
+        text = f.attrs[name]
+        if not isinstance(text, (str, bytes)):
+            fail(f"attribute {name} is not a JSON string")
+        try:
+            attrs[name] = json.loads(text)
+        except json.JSONDecodeError as exc:
+            fail(f"attribute {name} is not valid JSON: {exc}")
+    field_names = attrs.pop("field_names")
+    if not isinstance(field_names, list):
+        fail(f"attribute field_names is not a list: {field_names!r}")
+    input_hash = f.attrs["input_hash"]
+    if not isinstance(input_hash, str):
+        fail("attribute input_hash is not a string")
+
+    arrays = {name: _dataset(f, name, float, where) for name in _ARRAYS}
+    groups = {}
+    for name, g in f["groups"].items():
+        if not isinstance(g, h5py.Group):
+            fail(f"/groups/{name} is not a group")
+        absent = [f"/groups/{name}/{part}" for part in ("nodes", "weights") if part not in g]
+        if absent:
+            fail("missing dataset " + ", ".join(absent))
+        groups[name] = NodeGroup(nodes=_dataset(g, "nodes", np.int64, where),
+                                 weights=_dataset(g, "weights", float, where))
+    return ReducedModel(**arrays, field_names=tuple(field_names), groups=groups,
+                        input_hash=input_hash, schema_version=version, **attrs)
+
+
+def _dataset(parent: h5py.Group, name: str, dtype: type, where: str) -> np.ndarray:
+    """Dataset ``name`` of ``parent`` as ``dtype`` if its numbers convert exactly in kind.
+
+    Integers are required for an integer ``dtype`` and real numbers for a float one; data of
+    another kind is returned unconverted, for :func:`validate_model` to name.
+    """
+    obj = parent[name]
+    if not isinstance(obj, h5py.Dataset):
+        raise ReducedModelError(f"{where}: {obj.name} is not a dataset")
+    if obj.chunks is None and obj.size * obj.dtype.itemsize > obj.file.id.get_filesize():
+        raise ReducedModelError(f"{where}: {obj.name} claims shape {obj.shape}, more data than "
+                                f"the whole file holds: the file is damaged")
+    data = np.asarray(obj[()])
+    kinds = "iu" if np.dtype(dtype).kind in "iu" else "fiu"
+    return data.astype(dtype) if data.dtype.kind in kinds else data

@@ -1,10 +1,13 @@
-"""The reduced-model file: round trip, damaged and foreign files, atomic writes, and a
-reader that needs NumPy and h5py only."""
+"""The reduced-model file: round trip, positions, damaged and foreign files, atomic writes, and
+a reader that needs NumPy and h5py only."""
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
+from collections.abc import Callable
 from dataclasses import replace
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -12,6 +15,11 @@ import pytest
 
 from conftest import REPO
 from gcms_fenicsx import reduced_model as rm
+
+ARRAYS = ("mass", "stiffness", "gravity", "fields", "nodes_m", "frequencies_hz",
+          "reduced_frequencies_hz")
+ATTRS = ("field_names", "selection", "tolerances", "material", "mesh", "units", "input_hash",
+         "schema_version")
 
 
 @pytest.fixture
@@ -21,103 +29,171 @@ def model() -> rm.ReducedModel:
     X = corners - corners.mean(axis=0)
     rng = np.random.default_rng(1)
     F = np.hstack([np.ones((8, 1)), X, rng.standard_normal((8, 2))])
-    G = F.T @ F * 7.85
-    K = rng.standard_normal((18, 18))
+    G = F.T @ F * 7.85  # a lumped Fᵀ Ms F
+    K = rng.standard_normal((18, 12))
     return rm.ReducedModel(
         mass=np.kron(G, np.eye(3)), stiffness=K @ K.T, gravity=np.kron(G[:, :1], np.eye(3)),
-        fields=F, nodes_m=corners, field_names=("1", "X", "Y", "Z", "psi1", "psi2"),
-        groups={"bottom": rm.NodeGroup(nodes=np.array([0, 2, 4, 6]), weights=np.full(4, 0.25))},
-        frequencies_hz=np.array([10.0, 20.0]), reduced_frequencies_hz=np.array([10.0, 20.0]),
-        selection={"columns_after": 18}, tolerances={"svd_tolerance": 1e-6},
-        material={"E": 1.0, "nu": 0.3, "rho": 7.85}, mesh={"nodes": 8}, input_hash="abc")
+        fields=F, nodes_m=corners, field_names=("1", "X", "Y", "Z", "phi1_x", "phi1_y"),
+        groups={"bottom": rm.NodeGroup(nodes=np.array([0, 2, 4, 6]),
+                                       weights=np.array([0.1, 0.2, 0.3, 0.4])),
+                "corner": rm.NodeGroup(nodes=np.array([7]), weights=np.array([1.0]))},
+        frequencies_hz=np.array([10.0, 20.0]), reduced_frequencies_hz=np.array([10.0, 20.5]),
+        selection={"columns_before": 24, "columns_after": 18, "fields_dropped": []},
+        tolerances={"cosine_tolerance": 1e-8, "svd_tolerance": 1e-6},
+        material={"E": 2.1e11, "nu": 0.3, "rho": 7850.0}, mesh={"nodes": 8, "cells": 6},
+        input_hash="ab" * 32)
 
 
-def test_round_trip(model, tmp_path):
+@pytest.fixture
+def written(model, tmp_path) -> Path:
     path = tmp_path / "reduced.h5"
     rm.write_reduced(path, model)
-    back = rm.read_reduced(path)
-    for name in ("mass", "stiffness", "gravity", "fields", "nodes_m", "frequencies_hz"):
+    return path
+
+
+def damaged(path: Path, edit: Callable[[h5py.File], None]) -> Path:
+    with h5py.File(path, "r+") as f:
+        edit(f)
+    return path
+
+
+def replace_dataset(name: str, data) -> Callable[[h5py.File], None]:
+    def edit(f: h5py.File) -> None:
+        del f[name]
+        f[name] = data
+    return edit
+
+
+def test_round_trip(model, written):
+    back = rm.read_reduced(written)
+    for name in ARRAYS:
         np.testing.assert_array_equal(getattr(back, name), getattr(model, name))
-    assert back.field_names == model.field_names and back.input_hash == "abc"
-    assert back.selection == model.selection and back.units["length"] == "m"
-    np.testing.assert_array_equal(back.groups["bottom"].nodes, [0, 2, 4, 6])
-    assert oct(path.stat().st_mode & 0o777) == "0o644"
+        assert getattr(back, name).dtype == np.float64
+    for name in ATTRS:
+        assert getattr(back, name) == getattr(model, name), name
+    assert back.groups.keys() == model.groups.keys()
+    for name, g in model.groups.items():
+        np.testing.assert_array_equal(back.groups[name].nodes, g.nodes)
+        np.testing.assert_array_equal(back.groups[name].weights, g.weights)
+        assert back.groups[name].nodes.dtype == np.int64
+    assert back.dofs == 18
+    assert written.stat().st_mode & 0o777 == 0o644
 
 
 def test_positions_are_linear_in_q(model):
     q0 = model.undeformed_coordinates()
     np.testing.assert_allclose(model.fields @ q0.reshape(-1, 3), model.nodes_m, atol=1e-12)
-    np.testing.assert_allclose(model.position(q0, "bottom"), [0.5, 0.5, 0.0], atol=1e-12)
-    with pytest.raises(rm.ReducedModelError, match="no node group 'top'.*bottom"):
+    bottom = model.groups["bottom"]
+    np.testing.assert_allclose(model.position(q0, "bottom"),
+                               bottom.weights @ model.nodes_m[bottom.nodes], atol=1e-12)
+    np.testing.assert_allclose(model.position(q0, "corner"), [1, 1, 1], atol=1e-12)
+    # a rigid motion x -> R x + t of the coordinates moves every group's position alike
+    c, s = np.cos(0.3), np.sin(0.3)
+    R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    t = np.array([1.0, -2.0, 0.5])
+    Q = q0.reshape(-1, 3) @ R.T
+    Q[0] += t  # the field "1" carries translations
+    np.testing.assert_allclose(model.position(Q.ravel(), "bottom"),
+                               R @ model.position(q0, "bottom") + t, atol=1e-12)
+    with pytest.raises(rm.ReducedModelError, match="no node group 'top'.*bottom, corner"):
         model.position(q0, "top")
+    with pytest.raises(rm.ReducedModelError, match=r"q has shape \(17,\), expected \(18,\)"):
+        model.position(q0[:-1], "bottom")
 
 
-def test_truncated_file(model, tmp_path):
-    path = tmp_path / "reduced.h5"
-    rm.write_reduced(path, model)
-    data = path.read_bytes()
-    path.write_bytes(data[: len(data) // 2])
-    with pytest.raises(rm.ReducedModelError, match=f"{path}.*not a readable HDF5"):
-        rm.read_reduced(path)
-
-
-def test_newer_schema(model, tmp_path):
-    path = tmp_path / "reduced.h5"
-    rm.write_reduced(path, model)
-    with h5py.File(path, "r+") as f:
-        f.attrs["schema_version"] = rm.SCHEMA_VERSION + 1
-    with pytest.raises(rm.ReducedModelError, match="newer gcms-fenicsx: schema 2"):
-        rm.read_reduced(path)
-
-
-def test_missing_dataset_and_wrong_shape(model, tmp_path):
-    path = tmp_path / "reduced.h5"
-    rm.write_reduced(path, model)
-    with h5py.File(path, "r+") as f:
-        del f["stiffness"]
-    with pytest.raises(rm.ReducedModelError, match="missing .*stiffness"):
-        rm.read_reduced(path)
-    rm.write_reduced(path, model)
-    with h5py.File(path, "r+") as f:
-        del f["stiffness"]
-        f["stiffness"] = np.zeros((18, 17))
-    with pytest.raises(rm.ReducedModelError, match=r"/stiffness has shape \(18, 17\), expected \(18, 18\)"):
-        rm.read_reduced(path)
-
-
-@pytest.mark.parametrize("weights, message", [
-    (np.full(4, 0.3), "sum to 1"), (np.array([0.5, 0.5, 0.5, -0.5]), ">= 0"),
+@pytest.mark.parametrize("make, message", [
+    (lambda p: None, "no such file"),
+    (lambda p: p.mkdir(), "not a file"),
+    (lambda p: p.write_text("not HDF5\n"), "not a readable HDF5"),
 ])
-def test_bad_group_weights_are_refused_and_nothing_written(model, tmp_path, weights, message):
-    bad = replace(model, groups={"bottom": rm.NodeGroup(np.array([0, 2, 4, 6]), weights)})
+def test_missing_or_foreign_file(tmp_path, make, message):
+    path = tmp_path / "reduced.h5"
+    make(path)
+    with pytest.raises(rm.ReducedModelError, match=f"{re.escape(str(path))}: {message}"):
+        rm.read_reduced(path)
+
+
+def test_truncated_file(written):
+    data = written.read_bytes()
+    written.write_bytes(data[: len(data) // 2])
+    with pytest.raises(rm.ReducedModelError, match=re.escape(str(written))):
+        rm.read_reduced(written)
+
+
+def test_newer_or_missing_schema(written):
+    def newer(f):
+        f.attrs["schema_version"] = rm.SCHEMA_VERSION + 1
+    with pytest.raises(rm.ReducedModelError, match=f"newer gcms-fenicsx: schema "
+                                                   f"{rm.SCHEMA_VERSION + 1}, this reader "
+                                                   f"understands up to {rm.SCHEMA_VERSION}"):
+        rm.read_reduced(damaged(written, newer))
+
+    def missing(f):
+        del f.attrs["schema_version"]
+    with pytest.raises(rm.ReducedModelError, match="no schema_version"):
+        rm.read_reduced(damaged(written, missing))
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda f: f.__delitem__("stiffness"), "missing dataset /stiffness"),
+    (lambda f: f.attrs.__delitem__("units"), "missing attribute units"),
+    (lambda f: f.__delitem__("groups/bottom/weights"), "missing dataset /groups/bottom/weights"),
+    (replace_dataset("stiffness", np.eye(18, 17)),
+     r"/stiffness has shape \(18, 17\), expected \(18, 18\) like /mass"),
+    (replace_dataset("mass", np.eye(18, 15)), r"/mass is not square: shape \(18, 15\)"),
+    (replace_dataset("mass", np.eye(15)), r"/mass has shape \(15, 15\), expected \(18, 18\)"),
+    (replace_dataset("fields", np.ones((8, 5))), r"/fields has shape \(8, 5\), expected \(8, 6\)"),
+    (replace_dataset("nodes_m", np.ones((7, 3))),
+     r"/nodes_m has shape \(7, 3\), expected \(8, 3\)"),
+    (replace_dataset("frequencies_hz", np.array([1.0, np.nan])),
+     "/frequencies_hz holds 1 non-finite"),
+    (replace_dataset("groups/bottom/nodes", np.array([0, 2, 4, 8])),
+     "/groups/bottom/nodes refers to node 8, outside 0..7"),
+    (replace_dataset("groups/bottom/weights", np.full(4, 0.3)), "weights must sum to 1"),
+    (replace_dataset("groups/bottom/weights", np.array([0.5, 0.5, 0.5, -0.5])), "must be >= 0"),
+    (replace_dataset("stiffness", np.triu(np.ones((18, 18)))), "/stiffness is not symmetric"),
+])
+def test_damaged_content(written, edit, message):
+    with pytest.raises(rm.ReducedModelError, match=f"{re.escape(str(written))}: .*{message}"):
+        rm.read_reduced(damaged(written, edit))
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"stiffness": np.eye(18, 17)}, r"/stiffness has shape \(18, 17\)"),
+    ({"field_names": ("1", "X", "Y", "Z", "phi1_x")}, r"/mass has shape \(18, 18\), expected"),
+    ({"gravity": np.ones((18, 2))}, r"/gravity has shape \(18, 2\)"),
+    ({"mass": -np.eye(18)}, "not positive definite"),
+    ({"groups": {"bottom": rm.NodeGroup(np.array([0, 2]), np.array([0.5, np.nan]))}},
+     "non-finite"),
+    ({"selection": {"cond": np.float32(1.0)}}, "selection is not JSON-serializable"),
+])
+def test_inconsistent_model_is_refused_and_nothing_written(model, tmp_path, change, message):
     with pytest.raises(rm.ReducedModelError, match=message):
-        rm.write_reduced(tmp_path / "reduced.h5", bad)
+        rm.write_reduced(tmp_path / "reduced.h5", replace(model, **change))
     assert not any(tmp_path.iterdir())
 
 
-def test_interrupted_write_leaves_the_previous_file(model, tmp_path, monkeypatch):
-    path = tmp_path / "reduced.h5"
-    rm.write_reduced(path, model)
-    before = path.read_bytes()
+@pytest.mark.parametrize("interrupt", [KeyboardInterrupt, OSError])
+def test_interrupted_write_leaves_the_previous_file(model, written, monkeypatch, interrupt):
+    before = written.read_bytes()
+    original = h5py.Group.create_dataset
     calls = []
 
     def failing(self, name, *args, **kwargs):
         calls.append(name)
         if len(calls) > 2:
-            raise KeyboardInterrupt
+            raise interrupt("interrupted")
         return original(self, name, *args, **kwargs)
 
-    original = h5py.Group.create_dataset
     monkeypatch.setattr(h5py.Group, "create_dataset", failing)
-    with pytest.raises(KeyboardInterrupt):
-        rm.write_reduced(path, replace(model, input_hash="new"))
-    assert path.read_bytes() == before
-    assert [p.name for p in tmp_path.iterdir()] == ["reduced.h5"]
+    with pytest.raises(interrupt):
+        rm.write_reduced(written, replace(model, input_hash="cd" * 32))
+    assert len(calls) == 3
+    assert written.read_bytes() == before
+    assert [p.name for p in written.parent.iterdir()] == [written.name]
 
 
-def test_reader_needs_numpy_and_h5py_only(model, tmp_path):
-    path = tmp_path / "reduced.h5"
-    rm.write_reduced(path, model)
+def test_reader_needs_numpy_and_h5py_only(written):
     script = f"""
 import importlib.abc, sys
 BLOCKED = {{"dolfinx", "ufl", "basix", "petsc4py", "slepc4py", "mpi4py", "gmsh", "scipy"}}
@@ -127,9 +203,10 @@ class Block(importlib.abc.MetaPathFinder):
             raise ImportError(f"{{name}} is blocked")
 sys.meta_path.insert(0, Block())
 from gcms_fenicsx.reduced_model import read_reduced
-print(read_reduced({str(path)!r}).dofs)
+model = read_reduced({str(written)!r})
+print(model.dofs, model.position(model.undeformed_coordinates(), "corner").round(12).tolist())
 """
     run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                         cwd=REPO)
+                         cwd=REPO, timeout=60)
     assert run.returncode == 0, run.stderr
-    assert run.stdout.strip() == "18"
+    assert run.stdout.split() == ["18", "[1.0,", "1.0,", "1.0]"]
