@@ -3,7 +3,8 @@
 Each subcommand runs the stages it needs and writes its files into DIR only when all
 of them succeeded. Errors in the input end the command with one line naming the key,
 the value and what is allowed (exit status 2); a failed computation ends it with the
-numbers that failed (exit status 1).
+numbers that failed (exit status 1). A simulation that stops early is the exception to
+"nothing written": its results up to there are kept, marked incomplete (exit status 1).
 """
 from __future__ import annotations
 
@@ -32,6 +33,8 @@ def build_parser() -> argparse.ArgumentParser:
     _common(sub.add_parser("modes", help="free-free modes: modes.json, mode_shapes/modes.pvd"))
     _common(sub.add_parser("reduce", help="GCMS selection and reduced model: reduced.h5, "
                            "selection.json"))
+    _common(sub.add_parser("simulate", help="the [scene] on the reduced model (reused from DIR "
+                           "when its inputs are unchanged): results.h5, summary.json, plots"))
     _common(sub.add_parser("run", help="every stage, on CONFIG or the built-in default"),
             config_required=False)
     return parser
@@ -40,20 +43,31 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     logging.disable(logging.INFO)  # the JIT's C build logs every compiler call at INFO
-    from gcms_fenicsx import commands  # heavy imports (dolfinx, PETSc) only once a command runs
-    from gcms_fenicsx.eigen import EigenSolveError
-    from gcms_fenicsx.reduce import ReductionError
     from mpi4py import MPI
+
+    from gcms_fenicsx.dynamics.scene import SceneError
+    from gcms_fenicsx.errors import ComputationFailed
+    from gcms_fenicsx.reduced_model import ReducedModelError
+    from gcms_fenicsx.simulation import SimulationIncomplete, simulate_command
 
     comm = MPI.COMM_WORLD
     t0 = time.perf_counter()
     try:
-        summary = getattr(commands, args.command)(args.config, args.out)
-    except ConfigError as exc:
+        if args.command == "simulate":  # reuses a cached reduced model without dolfinx
+            summary = simulate_command(args.config, args.out)
+        else:  # heavy imports (dolfinx, PETSc) only for the finite-element commands
+            from gcms_fenicsx import commands
+            summary = getattr(commands, args.command)(args.config, args.out)
+    except (ConfigError, SceneError, ReducedModelError) as exc:
         if comm.rank == 0:
             print(f"gcms {args.command}: error: {exc}", file=sys.stderr)
         return 2
-    except (EigenSolveError, ReductionError) as exc:
+    except SimulationIncomplete as exc:
+        if comm.rank == 0:
+            print(f"{exc}\ngcms {args.command}: failed: the simulation stopped early; its "
+                  f"results up to there are in {args.out}/ (marked incomplete)", file=sys.stderr)
+        return 1
+    except ComputationFailed as exc:
         if comm.rank == 0:
             print(f"gcms {args.command}: failed: {exc}", file=sys.stderr)
         return 1

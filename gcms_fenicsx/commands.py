@@ -1,7 +1,9 @@
-"""What each ``gcms`` subcommand does: the stages it chains and the files it writes.
+"""What each finite-element ``gcms`` subcommand does: the stages it chains and the files it writes.
 
 Every command validates the whole config first, then works in a staging folder that
 replaces the files in ``--out`` only when everything succeeded (``outputs.staged_output``).
+``gcms simulate`` lives in ``simulation`` (it needs this module only when the reduced
+model is not cached).
 """
 from __future__ import annotations
 
@@ -17,10 +19,12 @@ from gcms_fenicsx import eigen, fe
 from gcms_fenicsx.config import StudyConfig, load_config
 from gcms_fenicsx.mesh import BodyMesh, read_mesh
 from gcms_fenicsx.modes_io import frequency_table, modes_report, write_mode_shapes
-from gcms_fenicsx.outputs import staged_output, write_json
-from gcms_fenicsx.pipeline import MeshStage, Progress, mesh_report, mesh_stage, progress_printer
+from gcms_fenicsx.outputs import on_rank0, staged_output, write_json
+from gcms_fenicsx.pipeline import MeshStage, mesh_report, mesh_stage
+from gcms_fenicsx.progress import Progress, progress_printer
 from gcms_fenicsx.reduce import reduce_body
-from gcms_fenicsx.reduced_model import write_reduced
+from gcms_fenicsx.reduced_model import ReducedModel, write_reduced
+from gcms_fenicsx.simulation import SimulationIncomplete, run_scene, simulation_summary
 
 
 def _write_mesh_json(cfg: StudyConfig, folder: Path, stage: MeshStage, Ms: PETSc.Mat,
@@ -49,7 +53,7 @@ def mesh(config: Path | None, out: Path) -> str:
     cfg = load_config(config)
     comm = MPI.COMM_WORLD
     with staged_output(out, comm) as folder:
-        stage = mesh_stage(cfg, folder, progress_printer(comm), comm)
+        stage = mesh_stage(cfg, folder, progress_printer(comm.rank), comm)
         body = read_mesh(stage.msh_path, stage.info.groups, comm)
         Ms, nodes = fe.assemble_scalar_mass(body.mesh)
         report = _write_mesh_json(cfg, folder, stage, Ms, nodes, 1.0, comm)
@@ -65,9 +69,10 @@ class _ModesResult:
     summary: str
 
 
-def _modes_files(cfg: StudyConfig, folder: Path, progress: Progress,
-                 comm: MPI.Comm) -> _ModesResult:
-    """Mesh, assembly and the verified eigen-solve; writes the mesh files, modes.json, mode_shapes/."""
+def _modes_files(cfg: StudyConfig, folder: Path, progress: Progress, comm: MPI.Comm,
+                 mode_shapes: bool = True) -> _ModesResult:
+    """Mesh, assembly and the verified eigen-solve; writes the mesh files, modes.json and, if
+    asked, mode_shapes/ (ParaView)."""
     stage = mesh_stage(cfg, folder, progress, comm)
     body = read_mesh(stage.msh_path, stage.info.groups, comm)
     t0 = time.perf_counter()
@@ -77,9 +82,10 @@ def _modes_files(cfg: StudyConfig, folder: Path, progress: Progress,
     mesh_json = _write_mesh_json(cfg, folder, stage, model.Ms, model.nodes, cfg.material.rho,
                                  comm)
     result = eigen.solve_free_free(model, cfg.modes, progress)
-    t0 = time.perf_counter()
-    write_mode_shapes(model, result, folder / "mode_shapes" / "modes.pvd")
-    timings["mode_shapes_output"] = time.perf_counter() - t0
+    if mode_shapes:
+        t0 = time.perf_counter()
+        write_mode_shapes(model, result, folder / "mode_shapes" / "modes.pvd")
+        timings["mode_shapes_output"] = time.perf_counter() - t0
     report = modes_report(model, result, timings)
     if comm.rank == 0:
         write_json(folder / "modes.json", report)
@@ -98,26 +104,33 @@ def modes(config: Path | None, out: Path) -> str:
     cfg = load_config(config)
     comm = MPI.COMM_WORLD
     with staged_output(out, comm) as folder:
-        result = _modes_files(cfg, folder, progress_printer(comm), comm)
+        result = _modes_files(cfg, folder, progress_printer(comm.rank), comm)
     return result.summary
+
+
+def reduced_model_files(cfg: StudyConfig, folder: Path, progress: Progress, comm: MPI.Comm,
+                        mode_shapes: bool = True) -> tuple[str, ReducedModel | None]:
+    """Every stage up to the reduced model: the files of ``gcms modes``, then reduced.h5 and
+    selection.json. Returns the summary text and the model (on rank 0; None elsewhere)."""
+    result = _modes_files(cfg, folder, progress, comm, mode_shapes)
+    progress("GCMS fields, selection and reduced matrices")
+    stats = {key: result.mesh_json[key] for key in ("nodes", "cells", "order", "volume_m3")}
+    stats["ndofs"] = result.model.ndofs
+    reduced, report = reduce_body(result.model, result.modes, result.body, cfg, stats)
+    report["eigensolve_s"] = result.modes.timings_s["eigensolve"]
+    if comm.rank == 0:
+        write_reduced(folder / "reduced.h5", reduced)
+        write_json(folder / "selection.json", report)
+    return "\n".join([result.summary, selection_summary(report)]), reduced
 
 
 def reduce(config: Path | None, out: Path) -> str:
     """``gcms reduce``: everything of ``gcms modes``, then reduced.h5 and selection.json."""
     cfg = load_config(config)
     comm = MPI.COMM_WORLD
-    progress = progress_printer(comm)
     with staged_output(out, comm) as folder:
-        result = _modes_files(cfg, folder, progress, comm)
-        progress("GCMS fields, selection and reduced matrices")
-        stats = {key: result.mesh_json[key] for key in ("nodes", "cells", "order", "volume_m3")}
-        stats["ndofs"] = result.model.ndofs
-        reduced, report = reduce_body(result.model, result.modes, result.body, cfg, stats)
-        report["eigensolve_s"] = result.modes.timings_s["eigensolve"]
-        if comm.rank == 0:
-            write_reduced(folder / "reduced.h5", reduced)
-            write_json(folder / "selection.json", report)
-    return "\n".join([result.summary, selection_summary(report)])
+        text, _ = reduced_model_files(cfg, folder, progress_printer(comm.rank), comm)
+    return text
 
 
 def selection_summary(report: dict) -> str:
@@ -133,5 +146,19 @@ def selection_summary(report: dict) -> str:
 
 
 def run(config: Path | None, out: Path) -> str:
-    """``gcms run``: every stage built so far (geometry, mesh, modes, selection, reduced model)."""
-    return reduce(config, out)
+    """``gcms run``: every stage — geometry, mesh, modes, selection, reduced model and, when
+    the study has a [scene], the simulation with its plots."""
+    cfg = load_config(config)
+    comm = MPI.COMM_WORLD
+    progress = progress_printer(comm.rank)
+    summary = None
+    with staged_output(out, comm) as folder:
+        text, model = reduced_model_files(cfg, folder, progress, comm)
+        if cfg.scene is not None:
+            summary = on_rank0(comm, run_scene, cfg, model, folder, progress)
+    if summary is None:
+        return text + "\nno [scene] table: the simulation stage was skipped"
+    text = "\n".join([text, simulation_summary(summary)])
+    if not summary["complete"]:
+        raise SimulationIncomplete(text)
+    return text

@@ -17,13 +17,17 @@ from typing import Any, Mapping
 
 from geometry import BeamParams, CrankshaftParams, MeshParams, parse_geometry, parse_mesh
 
+from gcms_fenicsx import __version__
+from gcms_fenicsx.dynamics.scene import Scene, parse_scene
 from gcms_fenicsx.material import Material, parse_material
 from gcms_fenicsx.modes_config import ModesConfig, parse_modes
 from gcms_fenicsx.selection import SelectionConfig, parse_selection
 from gcms_fenicsx.validation import ConfigError
 
 #: Tables a study file may contain, in pipeline order.
-KNOWN_TABLES = ("geometry", "mesh", "material", "modes", "selection")
+KNOWN_TABLES = ("geometry", "mesh", "material", "modes", "selection", "scene")
+#: The tables a reduced model depends on: its input hash, and the key of its cache.
+REDUCED_MODEL_TABLES = ("geometry", "mesh", "material", "modes", "selection")
 
 
 @dataclass(frozen=True)
@@ -33,12 +37,15 @@ class StudyConfig:
     material: Material = field(default_factory=Material)
     modes: ModesConfig = field(default_factory=ModesConfig)
     selection: SelectionConfig = field(default_factory=SelectionConfig)
+    scene: Scene | None = None
     source: str = "<built-in default>"
 
     def digest(self, *tables: str) -> str:
-        """SHA-256 of the named tables (all when none given): a cache key and provenance hash."""
+        """SHA-256 of the named tables (all when none given) and of this package's version: a
+        cache key and provenance hash."""
         names = tables or KNOWN_TABLES
         payload = {name: _plain(getattr(self, name)) for name in names}
+        payload["gcms_fenicsx_version"] = __version__
         return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
 
 
@@ -55,6 +62,7 @@ def parse_config(raw: Mapping[str, Any], source: str = "<dict>") -> StudyConfig:
         material=parse_material(raw.get("material")),
         modes=parse_modes(raw.get("modes")),
         selection=parse_selection(raw.get("selection")),
+        scene=parse_scene(raw.get("scene")),
         source=source,
     )
 

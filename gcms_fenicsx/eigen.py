@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 import scipy.linalg
@@ -29,7 +28,9 @@ from mpi4py import MPI
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
+from gcms_fenicsx.errors import ComputationFailed
 from gcms_fenicsx.modes_config import ModesConfig
+from gcms_fenicsx.progress import Progress, quiet
 from gcms_fenicsx.fe import FEModel, gram, mass_properties, mat_dense
 
 #: Largest admissible rigid-body content ‖Rᵀ M φ‖²/‖φ‖²_M of an elastic mode.
@@ -41,10 +42,7 @@ CLUSTER_SPLIT = 1e-3
 #: Largest admissible ‖ΦᵀMΦ − I‖_max.
 ORTHONORMALITY_LIMIT = 1e-8
 
-Progress = Callable[[str], None]
-
-
-class EigenSolveError(RuntimeError):
+class EigenSolveError(ComputationFailed):
     """The eigen-solve failed or one of its checks did not hold."""
 
 
@@ -222,7 +220,7 @@ def _run_eps(model: FEModel, nev: int, sigma: float, cfg: ModesConfig,
 
 
 def solve_free_free(model: FEModel, cfg: ModesConfig,
-                    progress: Progress = lambda message: None) -> Modes:
+                    progress: Progress = quiet) -> Modes:
     """The six rigid and the requested elastic modes of (K, M), verified.
 
     ``cfg.count`` elastic modes, or every elastic mode below ``cfg.max_frequency_hz``

@@ -2,7 +2,8 @@
 
 A command's files are written into a private staging folder beside the output folder
 and moved into place only when every stage has succeeded; single files are written
-to a temporary name and renamed. Under MPI, rank 0 owns the file system.
+to a temporary name and renamed. Under MPI, rank 0 owns the file system; without a
+communicator nothing here imports MPI (the standalone integrator writes through it).
 """
 from __future__ import annotations
 
@@ -13,9 +14,9 @@ import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable, TypeVar
 
-from mpi4py import MPI
+T = TypeVar("T")
 
 
 def write_json(path: Path, data: Any) -> None:
@@ -34,24 +35,28 @@ def write_json(path: Path, data: Any) -> None:
 
 
 @contextmanager
-def staged_output(out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD) -> Iterator[Path]:
+def staged_output(out_dir: Path, comm: Any = None) -> Iterator[Path]:
     """Yield a staging folder; on success move its files into ``out_dir``, on failure delete it.
 
     Files already in ``out_dir`` that the command did not produce are left untouched.
+    ``comm``: an mpi4py communicator whose ranks all write through rank 0, or None (serial).
     """
     out_dir = Path(out_dir)
+    rank = 0 if comm is None else comm.rank
     staging = None
-    if comm.rank == 0:
+    if rank == 0:
         out_dir.mkdir(parents=True, exist_ok=True)
         staging = tempfile.mkdtemp(dir=out_dir, prefix=".staging-")
-    staging = Path(comm.bcast(staging, root=0))
+    staging = Path(staging if comm is None else comm.bcast(staging, root=0))
     ok = False
     try:
         yield staging
         ok = True
     finally:
-        ok = comm.allreduce(ok, op=MPI.LAND)
-        if comm.rank == 0:
+        if comm is not None:
+            from mpi4py import MPI
+            ok = comm.allreduce(ok, op=MPI.LAND)
+        if rank == 0:
             if ok:
                 for item in sorted(staging.iterdir()):
                     target = out_dir / item.name
@@ -59,4 +64,24 @@ def staged_output(out_dir: Path, comm: MPI.Comm = MPI.COMM_WORLD) -> Iterator[Pa
                         shutil.rmtree(target)
                     os.replace(item, target)
             shutil.rmtree(staging, ignore_errors=True)
-        comm.barrier()
+        if comm is not None:
+            comm.barrier()
+
+
+def on_rank0(comm: Any, fn: Callable[..., T], *args: Any) -> T:
+    """``fn(*args)`` on rank 0 only; its result, or the exception it raised, on every rank.
+
+    ``comm`` None runs it serially.
+    """
+    if comm is None:
+        return fn(*args)
+    result, error = None, None
+    if comm.rank == 0:
+        try:
+            result = fn(*args)
+        except Exception as exc:  # re-raised on every rank below
+            error = exc
+    result, error = comm.bcast((result, error), root=0)
+    if error is not None:
+        raise error
+    return result

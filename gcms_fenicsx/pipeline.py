@@ -6,7 +6,6 @@ and writes files; every rank takes part in the finite-element stages.
 """
 from __future__ import annotations
 
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,18 +15,8 @@ from mpi4py import MPI
 from geometry import MeshInfo, build_msh
 
 from gcms_fenicsx.config import StudyConfig
-from gcms_fenicsx.eigen import Progress
-
-
-def progress_printer(comm: MPI.Comm = MPI.COMM_WORLD) -> Progress:
-    """Print timestamped progress lines to stderr on rank 0."""
-    start = time.perf_counter()
-
-    def report(message: str) -> None:
-        if comm.rank == 0:
-            print(f"[{time.perf_counter() - start:7.1f} s] {message}", file=sys.stderr, flush=True)
-
-    return report
+from gcms_fenicsx.outputs import on_rank0
+from gcms_fenicsx.progress import Progress
 
 
 @dataclass(frozen=True)
@@ -41,21 +30,18 @@ class MeshStage:
 
 def mesh_stage(cfg: StudyConfig, folder: Path, progress: Progress,
                comm: MPI.Comm = MPI.COMM_WORLD) -> MeshStage:
-    """Build the geometry and mesh it on rank 0 into ``folder/mesh.msh``; every rank gets the info."""
+    """Build the geometry and mesh it on rank 0 into ``folder/mesh.msh``; every rank gets the info.
+
+    A scene that names a group the mesh does not have fails here, before any solve.
+    """
     path = Path(folder) / "mesh.msh"
-    info, error = None, None
     t0 = time.perf_counter()
-    if comm.rank == 0:
-        progress(f"geometry and mesh: {type(cfg.geometry).__name__}, size {cfg.mesh.size:g} m, "
-                 f"order {cfg.mesh.order}")
-        try:
-            info = build_msh(cfg.geometry, cfg.mesh, path)
-        except Exception as exc:  # re-raised on every rank below
-            error = exc
-    info, error = comm.bcast((info, error), root=0)
-    if error is not None:
-        raise error
+    progress(f"geometry and mesh: {type(cfg.geometry).__name__}, size {cfg.mesh.size:g} m, "
+             f"order {cfg.mesh.order}")
+    info = on_rank0(comm, build_msh, cfg.geometry, cfg.mesh, path)
     progress(f"mesh: {info.nodes} nodes, {info.cells} cells")
+    if cfg.scene is not None:
+        cfg.scene.check_groups(name for name, (dim, _) in info.groups.items() if dim == 2)
     return MeshStage(msh_path=path, info=info, wall_time_s=time.perf_counter() - t0)
 
 

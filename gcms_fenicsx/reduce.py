@@ -14,15 +14,16 @@ import numpy as np
 import scipy.linalg
 
 from gcms_fenicsx import basis, selection
-from gcms_fenicsx.config import StudyConfig
+from gcms_fenicsx.config import REDUCED_MODEL_TABLES, StudyConfig
 from gcms_fenicsx.eigen import Modes
+from gcms_fenicsx.errors import ComputationFailed
 from gcms_fenicsx.fe import FEModel
 from gcms_fenicsx.mesh import BodyMesh
 from gcms_fenicsx.node_groups import gather_rows, group_weights
 from gcms_fenicsx.reduced_model import NodeGroup, ReducedModel
 
 
-class ReductionError(RuntimeError):
+class ReductionError(ComputationFailed):
     """The reduced model cannot be used (its mass matrix is not positive definite)."""
 
 
@@ -94,5 +95,5 @@ def reduce_body(model: FEModel, modes: Modes, body: BodyMesh, cfg: StudyConfig,
         frequencies_hz=full_hz, reduced_frequencies_hz=reduced_hz, selection=report,
         tolerances=cfg.selection.to_json(),
         material={"E": cfg.material.E, "nu": cfg.material.nu, "rho": cfg.material.rho},
-        mesh=mesh_stats, input_hash=cfg.digest())
+        mesh=mesh_stats, input_hash=cfg.digest(*REDUCED_MODEL_TABLES))
     return reduced_model, report

@@ -25,6 +25,11 @@ class ConfigError(ValueError):
     def __reduce__(self):  # picklable, so MPI can send it from the rank that saw it
         return (type(self), (self.key, self.value, self.allowed))
 
+    @classmethod
+    def missing(cls, key: str, allowed: str) -> "ConfigError":
+        """A required key or table that is absent."""
+        return cls(key, _MISSING, allowed)
+
 
 class _Missing:
     def __repr__(self) -> str:
@@ -120,6 +125,29 @@ class Table:
                 for v in value):
             raise self.error(key, value, "must be a list of finite numbers")
         return [float(v) for v in value]
+
+    def vector(self, key: str, default: Any = _MISSING, length: int = 3) -> tuple[float, ...]:
+        """A list of exactly ``length`` finite numbers (a 3-vector by default)."""
+        value = self.get(key, default)
+        if (not isinstance(value, (list, tuple)) or len(value) != length or not all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                for v in value)):
+            raise self.error(key, value, f"must be a list of {length} finite numbers")
+        return tuple(float(v) for v in value)
+
+    def string_list(self, key: str, default: Any = _MISSING) -> list[str]:
+        value = self.get(key, default)
+        if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
+            raise self.error(key, value, "must be a list of strings")
+        return list(value)
+
+    def tables(self, key: str) -> list[Table]:
+        """An array of tables (``[[name.key]]`` in TOML), each as a :class:`Table` named
+        ``name.key[i]``; an empty list when the key is absent."""
+        value = self.get(key, [])
+        if not isinstance(value, (list, tuple)) or not all(isinstance(v, Mapping) for v in value):
+            raise self.error(key, value, f"must be an array of tables ([[{self.name}.{key}]])")
+        return [Table(f"{self.name}.{key}[{i}]", v) for i, v in enumerate(value)]
 
     def subtable(self, key: str) -> Mapping[str, Any]:
         value = self.get(key, {})

@@ -1,0 +1,171 @@
+"""A flexible body in GCMS coordinates, as the integrator sees it (DESIGN §2, §5).
+
+Node i is at x_i = Σ_f F[i, f] Q[f, :], with q = Q read row by row (nf fields, n = 3 nf).
+The body carries only what the equations of motion need: Mr, Kr, the field Gram matrix
+G (Mr = G ⊗ I3), the undeformed coordinates q0, and three small matrices derived from the
+rigid fields:
+
+- k1 (nf): coefficients of the constant field, F k1 = 1. g1 = G k1 holds ∫ρ F_f, so the
+  mass is m = k1ᵀ g1, the centre of mass c = Qᵀ g1 / m and the linear momentum Q̇ᵀ g1.
+- E (nf × 3): coefficients of the centred coordinates, F E = X − c.
+- H (nf × 3): A(q) = Qᵀ H is the mass-weighted least-squares affine map of the body,
+  x ≈ c + A (X − c): H = G E J⁻¹ with J = Eᵀ G E (so A(q0) = I). Its rotation R = polar(A)
+  is the co-rotated frame.
+
+Nothing here assumes the fields are few or dense: the full finite-element model is the
+same body with F = I (nf = nodes), and Mr, Kr may then be SciPy sparse matrices (anything
+with ``@``); this module itself needs NumPy only.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from gcms_fenicsx.dynamics.rotation import skew
+from gcms_fenicsx.dynamics.scene import SceneError
+from gcms_fenicsx.reduced_model import ReducedModel
+
+#: A group direction is in the span of its nodes when its second moment exceeds this
+#: fraction of the largest one (a flat face has one direction below it).
+SPAN_TOLERANCE = 1e-6
+
+
+@dataclass(frozen=True)
+class GroupRows:
+    """A node group as linear functions of q: its mean position and its affine map.
+
+    x_G(q) = Qᵀ h (the weighted mean position) and L(q) = Qᵀ H_G, the weighted
+    least-squares linear map of the group's own directions: L d = R d for every d in
+    ``span`` under a rigid motion R (DESIGN §4: positions are linear in q).
+    """
+
+    position: np.ndarray   # h (nf,)
+    affine: np.ndarray     # H_G (nf, 3)
+    span: np.ndarray       # (3, k) orthonormal directions the group's nodes extend in
+    center_m: np.ndarray   # undeformed mean position X̄_G
+
+
+def group_rows(field_rows: Any, weights: np.ndarray, coords: np.ndarray) -> GroupRows:
+    """Rows of a group from its nodes' field rows F_G (k × nf, dense or sparse), weights and
+    undeformed coordinates.
+
+    h = F_Gᵀ w; with r_i = X_i − X̄, S = Σ w_i r_i r_iᵀ and S⁺ its pseudo-inverse on the
+    directions the group extends in, H_G = F_Gᵀ (w r) S⁺, so L(q) = Σ w_i x_i r_iᵀ S⁺.
+    """
+    center = weights @ coords
+    r = coords - center
+    moment = (r * weights[:, None]).T @ r
+    lam, vecs = np.linalg.eigh(moment)
+    inside = lam > SPAN_TOLERANCE * lam.max() if lam.max() > 0 else np.zeros(3, bool)
+    pinv = (vecs[:, inside] / lam[inside]) @ vecs[:, inside].T
+    weighted = np.asarray(field_rows.T @ (r * weights[:, None]))
+    return GroupRows(position=np.asarray(field_rows.T @ weights).ravel(),
+                     affine=weighted @ pinv, span=vecs[:, inside], center_m=center)
+
+
+@dataclass(frozen=True)
+class Body:
+    """Constant matrices and rigid-field data of one flexible body in GCMS coordinates.
+
+    ``mass`` Mr and ``stiffness`` Kr (n × n) support ``@``; ``gram`` is G (nf × nf);
+    ``gravity`` (n × 3) gives the generalized gravity force ``gravity @ g``.
+    """
+
+    mass: Any
+    stiffness: Any
+    gram: Any
+    q0: np.ndarray
+    unit: np.ndarray        # k1
+    field_mass: np.ndarray  # g1 = G k1 = ∫ρ F_f
+    centred: np.ndarray     # E
+    affine: np.ndarray    # H
+    gravity: np.ndarray
+    groups: dict[str, GroupRows]
+    total_mass_kg: float
+    size_m: float         # radius of gyration √(tr J / m): the length scale of tolerances
+    node_fields: Any      # F (N × nf), dense or sparse (the identity for the full model)
+    nodes_m: np.ndarray   # undeformed node coordinates (N × 3)
+
+    @property
+    def dofs(self) -> int:
+        return self.q0.shape[0]
+
+    @property
+    def field_count(self) -> int:
+        return self.q0.shape[0] // 3
+
+    def group(self, name: str) -> GroupRows:
+        if name not in self.groups:
+            known = ", ".join(sorted(self.groups)) or "(none)"
+            raise SceneError(f"no node group {name!r} on this body; the groups are: {known}")
+        return self.groups[name]
+
+    def displacement(self, q: np.ndarray) -> np.ndarray:
+        """Nodal displacements F Q − X (N × 3)."""
+        return np.asarray(self.node_fields @ q.reshape(-1, 3)) - self.nodes_m
+
+    def center_of_mass(self, q: np.ndarray) -> np.ndarray:
+        """c = Qᵀ g1 / m."""
+        return q.reshape(-1, 3).T @ self.field_mass / self.total_mass_kg
+
+    def linear_momentum(self, v: np.ndarray) -> np.ndarray:
+        """p = Σ_i m_i v_i = Q̇ᵀ g1."""
+        return v.reshape(-1, 3).T @ self.field_mass
+
+    def angular_momentum(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """L = ∫ρ x × ẋ dV = Σ_f Q_f × (G Q̇)_f about the origin: ε_ijk (Qᵀ G Q̇)_jk."""
+        M = q.reshape(-1, 3).T @ np.asarray(self.gram @ v.reshape(-1, 3))
+        return np.array([M[1, 2] - M[2, 1], M[2, 0] - M[0, 2], M[0, 1] - M[1, 0]])
+
+    def rigid_velocity(self, q: np.ndarray, velocity: np.ndarray,
+                       angular_velocity: np.ndarray) -> np.ndarray:
+        """q̇ of the rigid velocity field ẋ = v + ω × (x − c) at configuration q.
+
+        Exact in the GCMS space: ẋ_i = Ω F_i Q + (v − Ω c) gives Q̇ = Q Ωᵀ + k1 (v − Ω c)ᵀ.
+        """
+        Omega = skew(np.asarray(angular_velocity, float))
+        Q = q.reshape(-1, 3)
+        drift = np.asarray(velocity, float) - Omega @ self.center_of_mass(q)
+        return (Q @ Omega.T + np.outer(self.unit, drift)).ravel()
+
+
+def make_body(mass: Any, stiffness: Any, gram: Any, q0: np.ndarray, unit: np.ndarray,
+              centred: np.ndarray, gravity: np.ndarray, groups: dict[str, GroupRows],
+              node_fields: Any, nodes_m: np.ndarray) -> Body:
+    """A :class:`Body` from its matrices and rigid-field coefficients; derives H, m and the size."""
+    g1 = np.asarray(gram @ unit).ravel()
+    total = float(unit @ g1)
+    B = np.asarray(gram @ centred)
+    J = centred.T @ B
+    return Body(mass=mass, stiffness=stiffness, gram=gram, q0=q0, unit=unit, field_mass=g1,
+                centred=centred,
+                affine=B @ np.linalg.inv(J), gravity=gravity, groups=groups,
+                total_mass_kg=total, size_m=float(np.sqrt(np.trace(J) / total)),
+                node_fields=node_fields, nodes_m=nodes_m)
+
+
+def body_from_reduced(model: ReducedModel) -> Body:
+    """The body of an exported reduced model (``reduced.h5``).
+
+    The first four fields span {1, X, Y, Z} (scaled and shifted or not), so k1 and E are
+    exact least-squares solutions on them and zero on the flexible fields.
+    """
+    F, nodes = model.fields, model.nodes_m
+    nf = F.shape[1]
+    rigid = F[:, :4]
+    unit, *_ = np.linalg.lstsq(rigid, np.ones(len(F)), rcond=None)
+    G = model.mass[::3, ::3]
+    k1 = np.zeros(nf)
+    k1[:4] = unit
+    q0 = model.undeformed_coordinates()
+    center = q0.reshape(-1, 3).T @ (G @ k1) / (k1 @ G @ k1)
+    coeff, *_ = np.linalg.lstsq(rigid, nodes - center, rcond=None)
+    E = np.zeros((nf, 3))
+    E[:4] = coeff
+    groups = {name: group_rows(F[g.nodes], g.weights, nodes[g.nodes])
+              for name, g in model.groups.items()}
+    return make_body(mass=model.mass, stiffness=model.stiffness, gram=G, q0=q0, unit=k1,
+                     centred=E, gravity=model.gravity, groups=groups, node_fields=F,
+                     nodes_m=nodes)

@@ -1,0 +1,180 @@
+"""Joints to the ground as constraints that are linear in q (DESIGN §4, §5).
+
+Every constraint row has the form  g_i(q, t) = u_i(t) · (Qᵀ v_i) − d_i,  i.e. the row
+kron(v_i, u_i) of C = ∂g/∂q, with v_i one of a group's linear functions of q
+(``body.GroupRows``) and u_i a direction:
+
+- position (3 rows per joint): v = h_G, u = e_x, e_y, e_z — the group's mean position stays
+  where it starts;
+- rotation about an axis c: with a direction d the group extends in, d ⊥ c, and u = c × d,
+  the row u · L(q) d measures a small rotation δθ about c as δθ (so its multiplier is the
+  moment about c, N·m); v = H_G d. Where the group may turn about an axis e (revolute,
+  driven), a row must not change under R_e(φ): u · R_e(φ) d is constant in φ only for
+  u = e or d = e, so the tilt rows use d = e × c (then u = e) or d = e;
+- a drive turns the row about the joint axis e with the prescribed angle: u(t) = R_e(θ(t)) u,
+  so u(t) · L d = sin(φ − θ) for a rotation φ about e.
+
+A spherical joint has the 3 position rows; a revolute joint adds rotations about two axes
+⊥ e (e free, or driven); a fixed joint rotations about all three. d_i are the rows' values
+in the initial state, so every joint holds its group where it starts.
+
+Rows sharing a v (a joint's position rows, say) are computed together: the integrator's
+solves depend on the rows only through the few distinct v.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from gcms_fenicsx.dynamics.body import Body
+from gcms_fenicsx.dynamics.rotation import rotation_about
+from gcms_fenicsx.dynamics.scene import Drive, Joint, SceneError
+
+#: A rotation constraint about c needs a group direction d ⊥ c with at least this length
+#: after c is projected out of the group's span.
+_MIN_LEVER = 1e-3
+
+
+@dataclass(frozen=True)
+class RowInfo:
+    """What one constraint row is, for reports: its joint, what its multiplier is, about or
+    along which global axis (at the start), and its unit."""
+
+    joint: str
+    kind: str      # "force", "moment" or "drive_moment"
+    axis: tuple[float, float, float]
+    unit: str      # "N" or "N*m"
+
+
+@dataclass(frozen=True)
+class Constraints:
+    """m rows g_i = u_i(t) · (Qᵀ v_{k_i}) − d_i over nv distinct vectors v (module docstring).
+
+    ``vectors`` (nv, nf); ``index`` (m,) maps rows to vectors and ``row_vectors`` (m, nf) is
+    ``vectors[index]``; ``directions`` (m, 3) are the u_i at θ = 0; ``drives`` maps a row to
+    (Drive, axis) for the rotating rows.
+    """
+
+    vectors: np.ndarray
+    index: np.ndarray
+    row_vectors: np.ndarray
+    directions: np.ndarray
+    targets: np.ndarray
+    drives: dict[int, tuple[Drive, np.ndarray]]
+    rows: tuple[RowInfo, ...]
+
+    @property
+    def count(self) -> int:
+        return len(self.index)
+
+    def directions_at(self, t: float, derivative: int = 0) -> np.ndarray:
+        """u_i(t) (m, 3), or its first or second time derivative."""
+        U = self.directions if derivative == 0 else np.zeros_like(self.directions)
+        if not self.drives:
+            return U
+        U = U.copy()
+        for i, (drive, axis) in self.drives.items():
+            theta, rate, accel = drive.angle(t)
+            u = rotation_about(axis, theta) @ self.directions[i]
+            if derivative == 0:
+                U[i] = u
+            elif derivative == 1:
+                U[i] = rate * np.cross(axis, u)
+            else:  # d²/dt² R_e(θ) u = θ̈ e × u + θ̇² e × (e × u), and e × (e × u) = −u (u ⊥ e)
+                U[i] = accel * np.cross(axis, u) - rate ** 2 * u
+        return U
+
+    def values(self, q: np.ndarray, U: np.ndarray) -> np.ndarray:
+        """u_i · (Qᵀ v_{k_i}) for the directions U (without the targets)."""
+        return (U * (self.row_vectors @ q.reshape(-1, 3))).sum(axis=1)
+
+    def residual(self, q: np.ndarray, U: np.ndarray) -> np.ndarray:
+        """g(q, t) = values − d for the directions U = u(t)."""
+        return self.values(q, U) - self.targets
+
+    def transpose_times(self, lam: np.ndarray, U: np.ndarray) -> np.ndarray:
+        """Cᵀ λ = vec(Σ_i λ_i v_{k_i} u_iᵀ)."""
+        return (self.row_vectors.T @ (lam[:, None] * U)).ravel()
+
+    def jacobian(self, U: np.ndarray) -> np.ndarray:
+        """C (m × n), dense: row i is kron(v_{k_i}, u_i)."""
+        return (self.row_vectors[:, :, None] * U[:, None, :]).reshape(self.count, -1)
+
+
+def _frame(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors b1, b2 with (b1, b2, axis) right-handed and orthonormal."""
+    helper = np.eye(3)[int(np.argmin(np.abs(axis)))]
+    b1 = np.cross(axis, helper)
+    b1 /= np.linalg.norm(b1)
+    return b1, np.cross(axis, b1)
+
+
+def _lever(span: np.ndarray, c: np.ndarray, turning: np.ndarray | None) -> np.ndarray | None:
+    """A unit direction d in the group's span with d ⊥ c, or None if the group has none.
+
+    With a turning axis e, only d = e × c or d = e give rows blind to the turning.
+    """
+    if turning is not None:
+        for d in (np.cross(turning, c), turning):
+            if np.linalg.norm(span.T @ d) > 1.0 - _MIN_LEVER:
+                return d
+        return None
+    if span.shape[1] == 0:
+        return None
+    perp = span - np.outer(c, c @ span)
+    lengths = np.linalg.norm(perp, axis=0)
+    best = int(np.argmax(lengths))
+    return perp[:, best] / lengths[best] if lengths[best] > _MIN_LEVER else None
+
+
+def build_constraints(body: Body, joints: tuple[Joint, ...], q_start: np.ndarray) -> Constraints:
+    """The rows of every joint, with targets taken at ``q_start`` (module docstring)."""
+    vectors: list[np.ndarray] = []
+    index: list[int] = []
+    directions: list[np.ndarray] = []
+    drives: dict[int, tuple[Drive, np.ndarray]] = {}
+    rows: list[RowInfo] = []
+
+    def add(v: np.ndarray, u: np.ndarray, info: RowInfo) -> int:
+        vectors.append(v)
+        index.append(len(vectors) - 1)
+        directions.append(u)
+        rows.append(info)
+        return len(index) - 1
+
+    for joint in joints:
+        g = body.group(joint.group)
+        start = len(vectors)
+        vectors.append(g.position)
+        for k in range(3):
+            index.append(start)
+            directions.append(np.eye(3)[k])
+            rows.append(RowInfo(joint.name, "force", tuple(np.eye(3)[k]), "N"))
+        if joint.type == "spherical":
+            continue
+        axis = np.eye(3)[0] if joint.axis is None else np.asarray(joint.axis)
+        frame = (*_frame(axis), axis) if joint.axis is not None else tuple(np.eye(3))
+        turns = joint.type == "revolute" or joint.drive is not None
+        for k in [0, 1] if joint.type == "revolute" and joint.drive is None else [0, 1, 2]:
+            c = frame[k]
+            d = _lever(g.span, c, axis if turns and k < 2 else None)
+            if d is None:
+                raise SceneError(
+                    f"joint {joint.name!r}: group {joint.group!r} cannot hold a rotation about "
+                    f"{np.round(c, 3).tolist()}: its nodes do not extend perpendicular to it")
+            kind = "drive_moment" if (k == 2 and joint.drive is not None) else "moment"
+            i = add(g.affine @ d, np.cross(c, d),
+                    RowInfo(joint.name, kind, tuple(float(x) for x in c), "N*m"))
+            if k == 2 and joint.drive is not None:
+                drives[i] = (joint.drive, axis)
+
+    vec = np.array(vectors).reshape(len(vectors), body.field_count)
+    idx = np.array(index, dtype=int)
+    base = Constraints(vectors=vec, index=idx, row_vectors=vec[idx],
+                       directions=np.array(directions).reshape(-1, 3),
+                       targets=np.zeros(len(index)), drives=drives, rows=tuple(rows))
+    targets = base.values(q_start, base.directions_at(0.0))
+    return Constraints(vectors=vec, index=idx, row_vectors=vec[idx],
+                       directions=base.directions, targets=targets, drives=drives,
+                       rows=base.rows)

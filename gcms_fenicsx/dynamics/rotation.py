@@ -1,0 +1,92 @@
+"""Rotations of 3-vectors: the polar decomposition of the body's affine map, its derivative,
+and the skew-matrix helpers the co-rotated forces are written with (DESIGN §5).
+
+All functions take single 3×3 matrices or stacks ``(..., 3, 3)`` and 3-vectors or stacks
+``(..., 3)``, so a tangent can be built for many directions at once.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+
+class InvertedBodyError(ArithmeticError):
+    """The body's affine map has a non-positive determinant: no rotation can be taken from it."""
+
+
+#: [w]× = (w @ _SKEW).reshape(3, 3): row k holds the flattened [e_k]×.
+_SKEW = np.array([[0, 0, 0, 0, 0, -1, 0, 1, 0],
+                  [0, 0, 1, 0, 0, 0, -1, 0, 0],
+                  [0, -1, 0, 1, 0, 0, 0, 0, 0]], dtype=float)
+
+
+def skew(w: np.ndarray) -> np.ndarray:
+    """[w]× with [w]× v = w × v, for a 3-vector or a stack of them."""
+    w = np.asarray(w)
+    return (w @ _SKEW).reshape(w.shape[:-1] + (3, 3))
+
+
+def axial(Y: np.ndarray) -> np.ndarray:
+    """w(Y) = (Y₃₂ − Y₂₃, Y₁₃ − Y₃₁, Y₂₁ − Y₁₂), twice the axial vector of Y's skew part.
+
+    It is the vector with Y : [b]× = w(Y) · b for every b (Frobenius product).
+    """
+    if Y.ndim == 2:
+        (a, b, c), (d, e, f), (g, h, i) = Y.tolist()
+        return np.array([h - f, c - g, d - b])
+    return np.stack([Y[..., 2, 1] - Y[..., 1, 2], Y[..., 0, 2] - Y[..., 2, 0],
+                     Y[..., 1, 0] - Y[..., 0, 1]], axis=-1)
+
+
+class Polar(NamedTuple):
+    """A = R U from one SVD A = W Σ Vᵀ: R = W Vᵀ, U = V Σ Vᵀ."""
+
+    rotation: np.ndarray
+    values: np.ndarray     # Σ
+    vt: np.ndarray         # Vᵀ
+
+    @property
+    def stretch(self) -> np.ndarray:
+        """U = V Σ Vᵀ."""
+        return (self.vt.T * self.values) @ self.vt
+
+    @property
+    def rate_operator_inverse(self) -> np.ndarray:
+        """S⁻¹ for :func:`rotation_rate`: S = tr U · I − U = V (tr Σ · I − Σ) Vᵀ."""
+        return (self.vt.T / (self.values.sum() - self.values)) @ self.vt
+
+
+def polar(A: np.ndarray) -> Polar:
+    """The polar decomposition A = R U, R a rotation and U symmetric positive definite.
+
+    Unique for det A > 0; a reflected or degenerate A raises :class:`InvertedBodyError`.
+    """
+    W, s, Vt = np.linalg.svd(A)
+    R = W @ Vt
+    if _det3(R) < 0.0 or not s[2] > 1e-12 * s[0]:
+        raise InvertedBodyError(f"affine map of the body has det = {np.linalg.det(A):.3e} "
+                                f"(singular values {s[0]:.3e}, {s[1]:.3e}, {s[2]:.3e}): the "
+                                "body is inverted or collapsed")
+    return Polar(R, s, Vt)
+
+
+def _det3(M: np.ndarray) -> float:
+    (a, b, c), (d, e, f), (g, h, i) = M.tolist()
+    return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+
+
+def rotation_rate(R: np.ndarray, S_inv: np.ndarray, dA: np.ndarray) -> np.ndarray:
+    """ω with dR = R [ω]× for a change dA of A = R U (one 3×3 or a stack).
+
+    From Rᵀ dA = [ω]× U + dU with dU symmetric: the skew part gives [ω]× U + U [ω]× =
+    [(tr U · I − U) ω]× = Rᵀ dA − dAᵀ R, so ω = S⁻¹ w(Rᵀ dA) with S = tr U · I − U
+    (positive definite whenever U is).
+    """
+    return axial(R.T @ dA) @ S_inv.T
+
+
+def rotation_about(axis: np.ndarray, angle: float) -> np.ndarray:
+    """Rodrigues' formula: the rotation by ``angle`` (rad) about the unit vector ``axis``."""
+    K = skew(axis)
+    return np.eye(3) + np.sin(angle) * K + (1.0 - np.cos(angle)) * (K @ K)

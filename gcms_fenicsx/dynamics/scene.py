@@ -1,0 +1,297 @@
+"""The ``[scene]`` table: what is simulated — joints, loads, gravity, initial motion, time span,
+integrator settings and outputs. Pure parsing: nothing here knows the body, so group names
+are checked when the scene meets a body (``simulate``).
+
+SI units throughout: seconds, metres, newtons, radians.
+
+```toml
+[scene]
+end_time = 1.0                 # s
+time_step = 1e-3               # s
+rho_inf = 0.8                  # spectral radius at infinite frequency, 0..1
+gravity = [0.0, 0.0, -9.81]    # m/s²
+damping = { alpha = 0.0, beta = 0.0 }   # co-rotated Rayleigh: α Mr + β Kr on deformation rates
+solver = { tolerance = 1e-10, max_iterations = 25, jacobian = "rotated" }
+initial = { velocity = [0, 0, 0], angular_velocity = [0, 0, 0], mode = 1, amplitude = 1e-3 }
+outputs = { groups = ["end_xL"], every = 1, energy = true, constraint_forces = true,
+            coordinates = false, field_times = [0.5] }
+
+[[scene.joints]]
+type = "revolute"              # spherical, revolute or fixed (to the ground)
+group = "end_x0"
+axis = [0.0, 1.0, 0.0]         # revolute (and a driven fixed joint)
+drive = { angular_velocity = 100.0, ramp_time = 0.05 }   # optional: prescribed rotation
+
+[[scene.loads]]
+group = "end_xL"
+force = [0.0, 0.0, -10.0]      # N, on the group's weighted mean position
+time = "harmonic"              # constant, ramp or harmonic
+frequency_hz = 20.0
+```
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Iterable, Mapping
+
+from gcms_fenicsx.validation import ConfigError, Table
+
+JOINT_TYPES = ("spherical", "revolute", "fixed")
+
+
+class SceneError(ValueError):
+    """A scene that does not fit the body (an unknown group, a joint the group cannot carry)."""
+
+LOAD_TIMES = ("constant", "ramp", "harmonic")
+JACOBIANS = ("rotated", "exact")
+
+
+@dataclass(frozen=True)
+class Drive:
+    """A prescribed rotation θ(t) about a joint's axis: speed Ω reached smoothly over ``ramp_time_s``.
+
+    θ̇(t) = Ω (1 − cos(π t / T)) / 2 for t < T, then Ω: continuous acceleration, so the
+    drive starts without a jerk in the constraint forces.
+    """
+
+    angular_velocity: float
+    ramp_time_s: float = 0.0
+
+    def angle(self, t: float) -> tuple[float, float, float]:
+        """(θ, θ̇, θ̈) at time t."""
+        W, T = self.angular_velocity, self.ramp_time_s
+        if t >= T:
+            return W * (t - 0.5 * T), W, 0.0
+        c = math.pi / T
+        return (0.5 * W * (t - math.sin(c * t) / c), 0.5 * W * (1.0 - math.cos(c * t)),
+                0.5 * W * c * math.sin(c * t))
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A joint of one node group to the ground, where the group starts."""
+
+    name: str
+    type: str
+    group: str
+    axis: tuple[float, float, float] | None = None
+    drive: Drive | None = None
+
+
+@dataclass(frozen=True)
+class Load:
+    """A force on a node group's weighted mean position, in the global frame: F s(t)."""
+
+    name: str
+    group: str
+    force_n: tuple[float, float, float]
+    time: str = "constant"
+    ramp_time_s: float = 0.0
+    frequency_hz: float = 0.0
+    phase_deg: float = 0.0
+
+    def factor(self, t: float) -> float:
+        """s(t): 1, min(t / T, 1), or sin(2π f t + φ)."""
+        if self.time == "ramp":
+            return min(t / self.ramp_time_s, 1.0)
+        if self.time == "harmonic":
+            return math.sin(2.0 * math.pi * self.frequency_hz * t + math.radians(self.phase_deg))
+        return 1.0
+
+
+@dataclass(frozen=True)
+class Initial:
+    """Initial state: a rigid velocity field v + ω × (x − c), and optionally an elastic
+    deformation in one elastic mode of the reduced model, scaled to a largest nodal
+    displacement of ``amplitude_m``."""
+
+    velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    angular_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    mode: int | None = None
+    amplitude_m: float = 0.0
+
+
+@dataclass(frozen=True)
+class Solver:
+    """Newton on the generalized-α step: increments below ``tolerance`` × body size end it.
+
+    ``jacobian``: "rotated" factorises β'Mr + γ'D + Kr once and rotates it with the frame
+    (the exact tangent minus the change-of-frame terms); "exact" assembles the exact
+    tangent and solves with it in every iteration.
+    """
+
+    tolerance: float = 1e-10
+    max_iterations: int = 25
+    jacobian: str = "rotated"
+
+
+@dataclass(frozen=True)
+class Outputs:
+    """What the simulation records, every ``every``-th step."""
+
+    groups: tuple[str, ...] = ()
+    every: int = 1
+    energy: bool = True
+    constraint_forces: bool = True
+    coordinates: bool = False
+    field_times: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True)
+class Scene:
+    end_time_s: float
+    time_step_s: float
+    rho_inf: float = 0.8
+    gravity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    damping_alpha: float = 0.0
+    damping_beta: float = 0.0
+    joints: tuple[Joint, ...] = ()
+    loads: tuple[Load, ...] = ()
+    initial: Initial = field(default_factory=Initial)
+    solver: Solver = field(default_factory=Solver)
+    outputs: Outputs = field(default_factory=Outputs)
+
+    @property
+    def steps(self) -> int:
+        """Steps to reach end_time (the last one lands on it to within 1e-9 of a step)."""
+        return max(1, math.ceil(self.end_time_s / self.time_step_s - 1e-9))
+
+    def groups_used(self) -> list[str]:
+        """Every group a joint, load or output refers to, in order of first mention."""
+        names = [j.group for j in self.joints] + [ld.group for ld in self.loads]
+        return list(dict.fromkeys(names + list(self.outputs.groups)))
+
+    def check_groups(self, known: Iterable[str]) -> None:
+        """SceneError naming the first joint, load or output whose group is not in ``known``."""
+        known = set(known)
+        uses = ([(f"joints[{i}] ({j.name})", j.group) for i, j in enumerate(self.joints)]
+                + [(f"loads[{i}] ({ld.name})", ld.group) for i, ld in enumerate(self.loads)]
+                + [("outputs.groups", g) for g in self.outputs.groups])
+        for where, name in uses:
+            if name not in known:
+                listed = ", ".join(sorted(known)) or "(none)"
+                raise SceneError(f"[scene] {where}: group = {name!r} is not a node group of "
+                                 f"this body; the groups are: {listed}")
+
+
+def _axis(t: Table, key: str) -> tuple[float, float, float]:
+    axis = t.vector(key)
+    norm = math.sqrt(sum(a * a for a in axis))
+    if norm == 0.0:
+        raise t.error(key, list(axis), "must be a non-zero vector")
+    return tuple(a / norm for a in axis)
+
+
+def _joint(t: Table) -> Joint:
+    kind = t.choice("type", JOINT_TYPES)
+    group = _group_name(t, "group")
+    name = _name(t, f"{kind}_{group}")
+    axis, drive = None, None
+    if kind == "revolute" or t.has("axis"):
+        axis = _axis(t, "axis")
+    if t.has("drive"):
+        if kind == "spherical":
+            raise t.error("drive", t.get("drive"), "a drive needs a revolute or fixed joint")
+        d = Table(f"{t.name}.drive", t.subtable("drive"))
+        drive = Drive(angular_velocity=d.number("angular_velocity"),
+                      ramp_time_s=d.number("ramp_time", 0.0, low=0.0))
+        d.finish()
+        if axis is None:
+            raise t.error("axis", None, "required with a drive: the axis it turns the group about")
+    t.finish()
+    return Joint(name=name, type=kind, group=group, axis=axis, drive=drive)
+
+
+def _load(t: Table, index: int) -> Load:
+    group = _group_name(t, "group")
+    name = _name(t, f"load{index}_{group}")
+    force = t.vector("force")
+    time = t.choice("time", LOAD_TIMES, "constant")
+    ramp = t.positive("ramp_time") if time == "ramp" else 0.0
+    freq, phase = (t.positive("frequency_hz"), t.number("phase_deg", 0.0)) \
+        if time == "harmonic" else (0.0, 0.0)
+    t.finish()
+    return Load(name=name, group=group, force_n=force, time=time, ramp_time_s=ramp,
+                frequency_hz=freq, phase_deg=phase)
+
+
+def _group_name(t: Table, key: str) -> str:
+    value = t.get(key)
+    if not isinstance(value, str) or not value:
+        raise t.error(key, value, "must be the name of a node group (a string)")
+    return value
+
+
+def _name(t: Table, default: str) -> str:
+    value = t.get("name", default)
+    if not isinstance(value, str) or not value or "/" in value:
+        raise t.error("name", value, "must be a non-empty string without '/'")
+    return value
+
+
+def _unique(kind: str, names: list[str]) -> None:
+    seen = set()
+    for n in names:
+        if n in seen:
+            raise ConfigError(f"[scene] {kind}", n, f"{kind} names must be unique; give each "
+                              "a distinct name = \"...\"")
+        seen.add(n)
+
+
+def parse_scene(raw: Mapping[str, Any] | None) -> Scene | None:
+    """The validated ``[scene]`` table, or None when the study has none."""
+    if raw is None:
+        return None
+    t = Table("scene", raw)
+    end = t.positive("end_time")
+    step = t.positive("time_step")
+    if step > end:
+        raise t.error("time_step", step, f"must be <= end_time ({end:g} s)")
+
+    d = Table("scene.damping", t.subtable("damping"))
+    alpha, beta = d.number("alpha", 0.0, low=0.0), d.number("beta", 0.0, low=0.0)
+    d.finish()
+
+    s = Table("scene.solver", t.subtable("solver"))
+    default = Solver()
+    solver = Solver(tolerance=s.number("tolerance", default.tolerance, low=1e-15, high=1e-3),
+                    max_iterations=s.integer("max_iterations", default.max_iterations, low=1,
+                                             high=1000),
+                    jacobian=s.choice("jacobian", JACOBIANS, default.jacobian))
+    s.finish()
+
+    i = Table("scene.initial", t.subtable("initial"))
+    mode = i.integer("mode", None, low=1) if i.has("mode") else None
+    initial = Initial(velocity=i.vector("velocity", (0.0, 0.0, 0.0)),
+                      angular_velocity=i.vector("angular_velocity", (0.0, 0.0, 0.0)),
+                      mode=mode,
+                      amplitude_m=i.positive("amplitude") if mode is not None else 0.0)
+    if mode is None and i.has("amplitude"):
+        raise i.error("amplitude", i.get("amplitude"), "needs mode = N: the elastic mode it scales")
+    i.finish()
+
+    o = Table("scene.outputs", t.subtable("outputs"))
+    field_times = tuple(o.number_list("field_times", []))
+    bad = [x for x in field_times if not 0.0 <= x <= end]
+    if bad:
+        raise o.error("field_times", list(field_times), f"each must be within 0..end_time "
+                      f"({end:g} s); {bad[0]:g} is not")
+    groups = o.string_list("groups", [])
+    outputs = Outputs(groups=tuple(dict.fromkeys(groups)), every=o.integer("every", 1, low=1),
+                      energy=o.boolean("energy", True),
+                      constraint_forces=o.boolean("constraint_forces", True),
+                      coordinates=o.boolean("coordinates", False), field_times=field_times)
+    o.finish()
+
+    joints = tuple(_joint(jt) for jt in t.tables("joints"))
+    loads = tuple(_load(lt, k) for k, lt in enumerate(t.tables("loads")))
+    _unique("joints", [j.name for j in joints])
+    _unique("loads", [ld.name for ld in loads])
+    scene = Scene(end_time_s=end, time_step_s=step,
+                  rho_inf=t.number("rho_inf", 0.8, low=0.0, high=1.0),
+                  gravity=t.vector("gravity", (0.0, 0.0, 0.0)),
+                  damping_alpha=alpha, damping_beta=beta, joints=joints, loads=loads,
+                  initial=initial, solver=solver, outputs=outputs)
+    t.finish()
+    return scene

@@ -1,0 +1,83 @@
+"""Pictures of a simulation for a person to look at: a sensor's trajectory and the energies.
+
+Matplotlib (Agg) is imported when a picture is drawn, not before.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from gcms_fenicsx.dynamics.results import Trajectory
+
+
+def _pyplot():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def plot_trajectory(traj: Trajectory, path: Path, sensor: str) -> None:
+    """The sensor group's displacement components against time, and its path in the plane
+    of its two largest motions."""
+    plt = _pyplot()
+    t, x = traj.time, traj.groups[sensor]["position"]
+    d = x - x[0]
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11.5, 4.3))
+    for k, name in enumerate("xyz"):
+        left.plot(t, 1e3 * d[:, k], label=f"{name}")
+    left.set_xlabel("time [s]")
+    left.set_ylabel(f"displacement of {sensor} [mm]")
+    left.legend(loc="best")
+    left.grid(alpha=0.3)
+    a, b = np.argsort(np.ptp(x, axis=0))[::-1][:2]
+    right.plot(x[:, a], x[:, b], lw=1.0)
+    right.plot(x[:1, a], x[:1, b], "o", label="start")
+    right.set_xlabel(f"{'xyz'[a]} [m]")
+    right.set_ylabel(f"{'xyz'[b]} [m]")
+    right.set_aspect("equal", adjustable="datalim")
+    right.legend(loc="best")
+    right.grid(alpha=0.3)
+    right.set_title(f"path of {sensor}")
+    status = "" if traj.complete else "  (incomplete)"
+    fig.suptitle(f"sensor {sensor}{status}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_energy(traj: Trajectory, path: Path) -> None:
+    """Kinetic, elastic and gravity energy, the work terms, and the balance error."""
+    plt = _pyplot()
+    e, t = traj.energy, traj.time
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True,
+                                      gridspec_kw={"height_ratios": [2.2, 1]})
+    top.plot(t, e["kinetic"], label="kinetic")
+    top.plot(t, e["elastic"], label="elastic")
+    top.plot(t, e["gravity"] - e["gravity"][0], label="gravity (from start)")
+    for name in ("load_work", "constraint_work", "damping_dissipation"):
+        if np.any(e[name]):
+            top.plot(t, e[name], "--", label=name.replace("_", " "))
+    top.set_ylabel("energy [J]")
+    top.legend(loc="best", fontsize=8)
+    top.grid(alpha=0.3)
+    bottom.plot(t, e["balance_error"], color="k")
+    bottom.set_ylabel("balance error [J]")
+    bottom.set_xlabel("time [s]")
+    bottom.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_results(traj: Trajectory, folder: Path) -> list[str]:
+    """trajectory.png (first output group) and energy.png, where the data exist; their names."""
+    written = []
+    if traj.groups and len(traj.time) > 1:
+        plot_trajectory(traj, folder / "trajectory.png", next(iter(traj.groups)))
+        written.append("trajectory.png")
+    if traj.energy and len(traj.time) > 1:
+        plot_energy(traj, folder / "energy.png")
+        written.append("energy.png")
+    return written
