@@ -20,7 +20,7 @@ first elastic eigenvalue (min–max principle) that costs a few mat-vecs.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.linalg
@@ -77,6 +77,13 @@ class Modes:
     def elastic_frequencies_hz(self) -> np.ndarray:
         """f = √λ / 2π."""
         return np.sqrt(np.maximum(self.elastic_eigenvalues, 0.0)) / (2.0 * np.pi)
+
+    def lowest(self, count: int) -> "Modes":
+        """The same solve restricted to its rigid modes and lowest ``count`` elastic modes."""
+        keep = self.rigid_count + count
+        return replace(self, eigenvalues=self.eigenvalues[:keep], vectors=self.vectors[:, :keep],
+                       relative_residuals=self.relative_residuals[:keep],
+                       rigid_fractions=self.rigid_fractions[:keep])
 
     @property
     def missed_eigenvalues(self) -> int:

@@ -59,15 +59,6 @@ def studies(quick: bool) -> dict[str, dict]:
     return cases
 
 
-def truncate(modes, nm: int):
-    """The same solve's lowest nm elastic modes (the rigid six and nm columns)."""
-    from dataclasses import replace
-    keep = 6 + nm
-    return replace(modes, eigenvalues=modes.eigenvalues[:keep], vectors=modes.vectors[:, :keep],
-                   relative_residuals=modes.relative_residuals[:keep],
-                   rigid_fractions=modes.rigid_fractions[:keep])
-
-
 def run_case(name: str, table: dict, folder: Path) -> dict:
     from gcms_fenicsx import basis, eigen, fe, selection
     from gcms_fenicsx.config import parse_config
@@ -85,7 +76,7 @@ def run_case(name: str, table: dict, folder: Path) -> dict:
            "frequencies_hz": all_modes.elastic_frequencies_hz.tolist(), "by_modes": {},
            "sweep": []}
     for nm in MODE_COUNTS:
-        modes = truncate(all_modes, nm)
+        modes = all_modes.lowest(nm)
         row = {}
         for variant, extra in (("default", {}), ("plain", {"orthonormalize": False})):
             cfg_v = parse_config({**table, "selection": extra}, name)
@@ -93,7 +84,7 @@ def run_case(name: str, table: dict, folder: Path) -> dict:
             row[variant] = report
         out["by_modes"][nm] = row
     if name in ("square", "crankshaft"):
-        modes = truncate(all_modes, 10)
+        modes = all_modes.lowest(10)
         fields = basis.field_basis(model, modes)
         out["cosine"] = selection.cosine_matrix(fields.gram_mass).tolist()
         out["field_names"] = list(fields.names)

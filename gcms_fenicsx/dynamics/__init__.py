@@ -1,0 +1,23 @@
+"""The standalone integrator of a reduced GCMS body: NumPy and h5py only (DESIGN §5).
+
+Nothing in this package imports dolfinx, PETSc, MPI, Gmsh or SciPy, so a reduced model
+(``reduced.h5``) can be simulated on a machine that has none of them::
+
+    from gcms_fenicsx.dynamics import read_reduced, parse_scene, simulate
+    traj, summary = simulate(read_reduced("reduced.h5"), parse_scene({...}))
+
+or from the shell: ``python -m gcms_fenicsx.dynamics reduced.h5 study.toml --out DIR``.
+
+Modules: ``rotation`` (polar decomposition and its rate), ``body`` (the GCMS body),
+``corotated`` (elastic energy, forces, exact tangent), ``joints`` (linear constraints),
+``loads``, ``scene`` (the [scene] table), ``integrator`` (generalized-α and Newton),
+``recorder`` and ``results`` (what is kept, results.h5), ``simulate`` (composition).
+"""
+from gcms_fenicsx.dynamics.results import ResultsError, Trajectory, read_results, write_results
+from gcms_fenicsx.dynamics.scene import Scene, SceneError, parse_scene
+from gcms_fenicsx.dynamics.simulate import simulate, simulate_body
+from gcms_fenicsx.reduced_model import ReducedModelError, read_reduced
+
+__all__ = ["ReducedModelError", "ResultsError", "Scene", "SceneError", "Trajectory",
+           "parse_scene", "read_reduced", "read_results", "simulate", "simulate_body",
+           "write_results"]

@@ -15,17 +15,18 @@ every rigid motion (a rigid rotation is undone by R). With P = mat(Kr e) and the
     ∂V/∂Q = (P − H [b]×) Rᵀ,    b = S⁻¹ w(Q_locᵀ P),
 
 where the H-term is the work of the local forces on the change of frame. Its derivative,
-the exact tangent, is :func:`elastic_tangent`; the iteration matrix of the integrator
-keeps only its first part, (I ⊗ R) Kr (I ⊗ Rᵀ) (``integrator``).
+the exact tangent, is (I ⊗ R) Kr (I ⊗ Rᵀ) plus a rank-9 term from the change of frame
+(:func:`frame_update`, :func:`elastic_tangent`); the integrator factorises only the first
+part and adds the second by the Woodbury identity (``integrator``).
 """
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Callable, NamedTuple
 
 import numpy as np
 
 from gcms_fenicsx.dynamics.body import Body
-from gcms_fenicsx.dynamics.rotation import Polar, axial, polar, rotation_rate, skew
+from gcms_fenicsx.dynamics.rotation import Polar, axial, polar, skew
 
 
 class ElasticState(NamedTuple):
@@ -76,35 +77,64 @@ def translation_free_force(body: Body, P: np.ndarray) -> np.ndarray:
     return P - body.field_mass[:, None] * (body.unit @ P / body.total_mass_kg)[..., None, :]
 
 
+def frame_update(body: Body, q: np.ndarray, s: ElasticState,
+                 apply_A: Callable[[np.ndarray], np.ndarray],
+                 geometric: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """(X, Y) with J_eᵀ A J_e + G = T A Tᵀ + X Y, rank 9, for a symmetric operator A that
+    annihilates translations (A = Kr gives the exact tangent ∂²V/∂q²); without the
+    ``geometric`` part G, J_eᵀ A J_e = T A Tᵀ + X Y of rank 6 (the velocity Jacobian of
+    co-rotated damping, A = γ' D₀, whatever the elastic law).
+
+    J_e = ∂e/∂q = Π Tᵀ + Ĉ W_ω (T = I ⊗ R): a coordinate change dq turns the frame by
+    ω = W_ω dq = S⁻¹ w(Rᵀ dQᵀ H), which moves e by Ĉ ω, Ĉ = Π [vec(Q_loc [e_k]×)]_k. With
+    B = Πᵀ A Ĉ:  J_eᵀ A J_e = T A Tᵀ + T B W_ω + W_ωᵀ Bᵀ Tᵀ + W_ωᵀ (Ĉᵀ A Ĉ) W_ω.
+    G dq = d(J_eᵀ) p at fixed p (the geometric stiffness of the local forces P):
+    −(P − H [b]×) [ω]× Rᵀ − H [db]× Rᵀ with db = W_b dq,
+
+        db = S⁻¹ (P_f × r_l − w([ω]× Y) − (r_l · h_f) b + r_l (h_f · b) − ω × (U b))
+
+    for dq = e_(f,l) (Y = Q_locᵀ P, r_l row l of R, h_f row f of H). So
+    X = [T B + U₃ | W_ωᵀ | U₂], Y = [W_ω ; (T B)ᵀ + (Ĉᵀ A Ĉ) W_ω ; W_b] with the columns
+    U₂[:, k] = −vec(H [e_k]× Rᵀ), U₃[:, k] = −vec((P − H [b]×) [e_k]× Rᵀ).
+    """
+    nf = body.field_count
+    H, R, S_inv, local, P, b = (body.affine, s.rotation, s.rate_inv, s.local, s.local_force,
+                                s.frame_term)
+    U = s.frame.stretch
+    E = np.eye(3)
+    h_x_r = np.cross(H[:, None, :], R[None, :, :])                  # h_f × r_l  (nf, 3, 3)
+    W_omega = (h_x_r.reshape(-1, 3) @ S_inv.T).T                   # (3, n)
+    omega = W_omega.T.reshape(nf, 3, 3)
+    rot_local = np.stack([local @ skew(E[k]) for k in range(3)])  # Q_loc [e_k]×  (3, nf, 3)
+    C_hat = without_translation(body, rot_local).reshape(3, -1).T  # (n, 3)
+    AC = np.asarray(apply_A(C_hat))
+    B = translation_free_force(body, AC.T.reshape(3, nf, 3))       # Πᵀ A Ĉ  (3, nf, 3)
+    TB = (B @ R.T).reshape(3, -1).T                                 # (n, 3)
+    CAC = C_hat.T @ AC
+    if not geometric:
+        return np.hstack([TB, W_omega.T]), np.vstack([W_omega, TB.T + CAC @ W_omega])
+    Y_lp = local.T @ P
+    M_Y = np.stack([axial(skew(E[k]) @ Y_lp) for k in range(3)], axis=1)   # w([ω]× Y) = M_Y ω
+    hr = H @ R.T                                                    # h_f · r_l  (nf, 3)
+    db = (np.cross(P[:, None, :], R[None, :, :]) - omega @ M_Y.T
+          - hr[:, :, None] * b + R[None, :, :] * (H @ b)[:, None, None]
+          - np.cross(omega, U @ b))
+    W_b = (db.reshape(-1, 3) @ S_inv.T).T                           # (3, n)
+    frame = P - H @ skew(b)
+    U2 = np.stack([-(H @ skew(E[k]) @ R.T).ravel() for k in range(3)], axis=1)
+    U3 = np.stack([-(frame @ skew(E[k]) @ R.T).ravel() for k in range(3)], axis=1)
+    X = np.hstack([TB + U3, W_omega.T, U2])
+    Y = np.vstack([W_omega, TB.T + CAC @ W_omega, W_b])
+    return X, Y
+
+
 def elastic_tangent(body: Body, q: np.ndarray, state: ElasticState | None = None) -> np.ndarray:
-    """The exact tangent ∂²V/∂q² (n × n, dense), by differentiating ∂V/∂Q along every dQ.
-
-    With dA = dQᵀ H, ω = S⁻¹ w(Rᵀ dA), dR = R [ω]×, dU = Rᵀ dA − [ω]× U,
-    dQ_loc = dQ R + Q dR, dP = Πᵀ mat(Kr Π vec(dQ_loc)), dY = dQ_locᵀ P + Q_locᵀ dP and
-    db = S⁻¹ (w(dY) − (tr dU · I − dU) b):
-
-        d(∂V/∂Q) = (dP − H [db]×) Rᵀ − (P − H [b]×) [ω]× Rᵀ.
+    """The exact tangent ∂²V/∂q² (n × n, dense): T Kr Tᵀ + X Y (:func:`frame_update`).
 
     Symmetric up to round-off (it is a Hessian); checked against finite differences in
     the tests.
     """
     s = elastic_state(body, q) if state is None else state
-    n = body.dofs
-    nf = n // 3
-    Q, H, R, U, S_inv = q.reshape(nf, 3), body.affine, s.rotation, s.frame.stretch, s.rate_inv
-    dQ = np.eye(n).reshape(n, nf, 3)                   # one direction per coordinate
-    dA = np.einsum("kfi,fj->kij", dQ, H)
-    omega = rotation_rate(R, S_inv, dA)                # (n, 3)
-    W = skew(omega)
-    dR = R @ W
-    dU = R.T @ dA - W @ U
-    dlocal = dQ @ R + np.einsum("fi,kij->kfj", Q, dR)
-    de = without_translation(body, dlocal).reshape(n, n)
-    dP = translation_free_force(body, np.asarray(body.stiffness @ de.T).T.reshape(n, nf, 3))
-    dY = np.swapaxes(dlocal, 1, 2) @ s.local_force + s.local.T @ dP
-    trace = np.trace(dU, axis1=1, axis2=2)
-    dS_b = trace[:, None] * s.frame_term - dU @ s.frame_term
-    db = (axial(dY) - dS_b) @ S_inv.T
-    frame = s.local_force - H @ skew(s.frame_term)
-    df = (dP - H @ skew(db)) @ R.T - frame @ W @ R.T
-    return df.reshape(n, n).T
+    T = np.kron(np.eye(body.field_count), s.rotation)
+    X, Y = frame_update(body, q, s, lambda V: body.stiffness @ V)
+    return T @ np.asarray(body.stiffness @ T.T) + X @ Y

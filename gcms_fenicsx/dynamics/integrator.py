@@ -18,24 +18,37 @@ Second-order accurate; ρ∞ = 1 is the undamped trapezoidal case.
 
 Newton on (q_{n+1}, λ_{n+1}): a correction Δq changes q̈ by β'Δq and q̇ by γ'Δq,
 β' = (1 − α_m)/(β h² (1 − α_f)), γ' = γ/(β h), so the iteration matrix is
-S = β' Mr + γ' D + K_t. Two choices (``[scene.solver] jacobian``):
+S = β' Mr + J_eᵀ (γ' D₀ + Kr) J_e + G (damping's ∂f_d/∂q, a few per mille of γ'∂f_d/∂q̇,
+left out). With T = I ⊗ R and S₀ = β' Mr + γ' D₀ + Kr, Mr = G ⊗ I3 commutes with T, so
 
-- "rotated" (default): S ≈ T S₀ Tᵀ with S₀ = β' Mr + γ' D₀ + Kr and T = I ⊗ R. Mr = G ⊗ I3
-  commutes with T, so this is the exact tangent without the change-of-frame terms, and S₀
-  is factorised once for the whole run. R is taken at the step's first iteration and kept
-  for the step (modified Newton), so the constraints' Schur complement, built from solves
-  precomputed per distinct row vector (``joints``), is inverted once per step; an
-  iteration costs one solve with S₀ and small dense algebra. Converges linearly at a
-  rate set by the neglected terms (strain-sized).
-- "exact": the exact elastic tangent (``corotated.elastic_tangent``), assembled and solved
-  with the constraints in every iteration (quadratic convergence, n³ per iteration).
+    S = T S₀ Tᵀ + X Y,   X Y of rank 9 (``corotated.frame_update``: the change of frame).
+
+S₀ is factorised once for the whole run. Per step, R is taken at the first iteration and
+kept (modified Newton); the constraints and, when used, the rank-9 term enter by the
+Woodbury identity as a border of m + 9 columns solved once per step, with S₀⁻¹ Cᵀ built
+from solves precomputed per distinct row vector (``joints``). An iteration then costs one
+solve with S₀ and small dense algebra. ``[scene.solver] jacobian``:
+
+- "rotated" (default): T S₀ Tᵀ alone — linear convergence at a rate set by the neglected
+  change-of-frame terms (strain-sized, but multiplied by 1 + γ'β under stiffness-
+  proportional damping); a step whose iteration contracts slower than
+  ``UPGRADE_RATE`` per iteration continues with the rank-9 term.
+- "exact": T S₀ Tᵀ + X Y from the first iteration of every step.
+- "assembled": the same exact S, assembled densely and LU-factorised in every iteration —
+  the textbook Newton, kept as the baseline the benchmarks compare against (dense bodies).
 
 Damping is Rayleigh damping in the co-rotated frame: the dissipation function
 ½ ėᵀ (α Mr + β Kr) ė of the deformation rate ė = Π d/dt vec(Q R), so rigid motion is not
 damped; its force is f_d = (∂e/∂q)ᵀ (α Mr + β Kr) ė (``corotated.frame_force``).
 
 The solve with S₀ goes through a ``factorize`` callable, so the same integrator runs the
-dense reduced body (NumPy, default) and the full finite-element model (a sparse LU).
+dense reduced body (NumPy, default) and the full finite-element model (a sparse LU); the
+internal force goes through an ``elastic`` callable (default: co-rotated linear
+elasticity), so a full-order geometrically nonlinear model can be stepped by the same
+scheme. The damping and the iteration matrix are those of the co-rotated linear model at
+the same q; for another elastic law only T S₀ Tᵀ and the damping's rank-6 change-of-frame
+term are used (the co-rotated geometric term belongs to the co-rotated forces), so its
+Newton converges linearly at a rate set by how far its tangent is from the linear one.
 """
 from __future__ import annotations
 
@@ -45,8 +58,8 @@ from typing import Any, Callable
 import numpy as np
 
 from gcms_fenicsx.dynamics.body import Body
-from gcms_fenicsx.dynamics.corotated import (ElasticState, elastic_state, elastic_tangent,
-                                             frame_force, translation_free_force,
+from gcms_fenicsx.dynamics.corotated import (ElasticState, elastic_state, frame_force,
+                                             frame_update, translation_free_force,
                                              without_translation)
 from gcms_fenicsx.dynamics.joints import Constraints
 from gcms_fenicsx.dynamics.loads import ExternalForces
@@ -55,6 +68,11 @@ from gcms_fenicsx.dynamics.scene import Solver
 
 Solve = Callable[[np.ndarray], np.ndarray]
 Factorize = Callable[[Any], Solve]
+#: "rotated": a step whose Newton increments shrink by less than this factor per iteration
+#: continues with the exact (rank-9-corrected) iteration matrix.
+UPGRADE_RATE = 0.25
+#: q ↦ an object with ``force`` (∂V/∂q), ``energy`` (V) and ``rotation`` (R of the frame).
+Elastic = Callable[[np.ndarray], Any]
 
 
 class IntegrationError(RuntimeError):
@@ -128,8 +146,16 @@ class GeneralizedAlpha:
 
     def __init__(self, body: Body, constraints: Constraints, forces: ExternalForces,
                  time_step_s: float, rho_inf: float, damping: tuple[float, float],
-                 solver: Solver, factorize: Factorize = dense_factorization) -> None:
+                 solver: Solver, factorize: Factorize = dense_factorization,
+                 elastic: Elastic | None = None) -> None:
         self.body, self.constraints, self.forces = body, constraints, forces
+        self.elastic = elastic or (lambda q: elastic_state(body, q))
+        self.corotated = elastic is None
+        if not self.corotated and solver.jacobian != "rotated":
+            raise ValueError(f'jacobian = "{solver.jacobian}" needs the co-rotated elastic '
+                             'model (its exact tangent); use "rotated"')
+        if solver.jacobian == "assembled" and not isinstance(body.mass, np.ndarray):
+            raise ValueError('jacobian = "assembled" needs a dense body')
         self.h = time_step_s
         self.p = AlphaParameters.from_rho_inf(rho_inf)
         p, h = self.p, time_step_s
@@ -144,8 +170,21 @@ class GeneralizedAlpha:
         self.factorize = factorize
         self._mass_solve: Solve | None = None
         self.tolerance_m = solver.tolerance * body.size_m
-        if solver.jacobian == "rotated":
-            self._rotated = _RotatedKKT(body, constraints, factorize(self.S0))
+        self.kkt = _BorderedKKT(body, constraints, factorize(self.S0), self.apply_A,
+                                geometric=self.corotated)
+        # frame terms: of the whole iteration matrix (co-rotated), else of the damping only
+        self.can_upgrade = self.corotated or self.damped
+
+    def linear_state(self, q: np.ndarray, es: Any) -> ElasticState:
+        """The co-rotated linear state at q (``es`` itself unless another elastic model runs)."""
+        return es if self.corotated else elastic_state(self.body, q)
+
+    def apply_A(self, X: np.ndarray) -> np.ndarray:
+        """A X, the operator of the frame terms: A = γ' D₀ + Kr = γ'α Mr + (1 + γ'β) Kr for the
+        co-rotated model, A = γ' D₀ (its damping only) for another elastic law."""
+        alpha, beta = self.damping
+        out = (int(self.corotated) + self.gamma_p * beta) * (self.body.stiffness @ X)
+        return out + (self.gamma_p * alpha) * (self.body.mass @ X) if alpha else out
 
     # -- forces ---------------------------------------------------------------------------
     def damping_force(self, q: np.ndarray, v: np.ndarray,
@@ -165,11 +204,11 @@ class GeneralizedAlpha:
                  lam: np.ndarray, U: np.ndarray) -> tuple[np.ndarray, ElasticState,
                                                           np.ndarray | None, float]:
         """r = Mr q̈ + f_d + ∂V/∂q − f_ext + Cᵀλ, with the elastic and damping terms."""
-        es = elastic_state(self.body, q)
+        es = self.elastic(q)
         r = self.body.mass @ acc + es.force - self.forces(t)
         fd, dissipation = None, 0.0
         if self.damped:
-            fd, dissipation = self.damping_force(q, v, es)
+            fd, dissipation = self.damping_force(q, v, self.linear_state(q, es))
             r += fd
         if self.constraints.count:
             r += self.constraints.transpose_times(lam, U)
@@ -196,8 +235,9 @@ class GeneralizedAlpha:
         """The state at t with consistent q̈ and λ: [Mr Cᵀ; C 0] [q̈; λ] = [f; −(2Ċq̇ + C̈q)]."""
         c = self.constraints
         U = c.directions_at(t)
-        es = elastic_state(self.body, q)
-        fd, dissipation = self.damping_force(q, v, es) if self.damped else (None, 0.0)
+        es = self.elastic(q)
+        fd, dissipation = (self.damping_force(q, v, self.linear_state(q, es)) if self.damped
+                           else (None, 0.0))
         f = self.forces(t) - es.force - (0.0 if fd is None else fd)
         solve = self.mass_solve()
         lam = np.zeros(c.count)
@@ -229,17 +269,18 @@ class GeneralizedAlpha:
         c = self.constraints
         U = c.directions_at(t1)
         mass, total, tol = self.body.mass, self.body.total_mass_kg, self.tolerance_m
-        previous = np.inf
-        rotated = self._rotated if self.solver.jacobian == "rotated" else None
+        previous, upgrade = np.inf, False
+        jacobian = self.solver.jacobian
+        exact = jacobian != "rotated"
         for iteration in range(1, self.solver.max_iterations + 1):
             r, es, fd, dissipation = self.residual(t1, q, v, acc, lam, U)
             g = c.residual(q, U)
-            if rotated is None:
-                dq, dlam = self._exact_correction(q, es, r, g, U)
+            if jacobian == "assembled":
+                dq, dlam = self._assembled_correction(q, self.linear_state(q, es), r, g, U)
             else:
-                if iteration == 1:
-                    rotated.prepare(es.rotation, U)
-                dq, dlam = rotated.solve(r, g)
+                if iteration == 1 or upgrade:
+                    self.kkt.prepare(q, self.linear_state(q, es), U, exact)
+                dq, dlam = self.kkt.solve(r, g)
             delta = float(np.sqrt(abs(dq @ (mass @ dq)) / total))
             if not delta < np.inf:
                 raise IntegrationError(f"the state is no longer finite at t = {t1:.6g} s "
@@ -250,6 +291,8 @@ class GeneralizedAlpha:
             lam += dlam
             if delta <= tol or delta * delta <= tol * (previous - delta) < np.inf:
                 break
+            upgrade = not exact and self.can_upgrade and delta > UPGRADE_RATE * previous
+            exact = exact or upgrade
             previous = delta
         else:
             raise IntegrationError(
@@ -261,35 +304,44 @@ class GeneralizedAlpha:
         return (State(t=t1, q=q, v=v, acc=acc, a=a1, lam=lam),
                 StepInfo(es, fd, dissipation, U, iteration))
 
-    def _exact_correction(self, q: np.ndarray, es: ElasticState, r: np.ndarray,
-                          g: np.ndarray, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Solve [S Cᵀ; C 0] with the exact elastic tangent (damping rotated, as in S₀)."""
-        alpha, beta = self.damping
+    def _assembled_correction(self, q: np.ndarray, es: ElasticState, r: np.ndarray,
+                              g: np.ndarray, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Solve [S Cᵀ; C 0] with S = T S₀ Tᵀ + X Y assembled densely (the baseline)."""
         n, m = self.body.dofs, self.constraints.count
-        R = np.kron(np.eye(n // 3), es.rotation)
-        D = R @ (alpha * self.body.mass + beta * self.body.stiffness) @ R.T
-        S = self.beta_p * self.body.mass + self.gamma_p * D + elastic_tangent(self.body, q, es)
-        if not m:
-            return -np.linalg.solve(S, r), np.zeros(0)
+        T = np.kron(np.eye(n // 3), es.rotation)
+        X, Y = frame_update(self.body, q, es, self.apply_A)
+        S = T @ self.S0 @ T.T + X @ Y
         C = self.constraints.jacobian(U)
         kkt = np.block([[S, C.T], [C, np.zeros((m, m))]])
         sol = -np.linalg.solve(kkt, np.concatenate([r, g]))
         return sol[:n], sol[n:]
 
 
-class _RotatedKKT:
-    """Newton corrections with S ≈ T S₀ Tᵀ and the constraints' Schur complement.
+def _rotate(R: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """T X = vec(X_f R ᵀ) for the columns of X (n,) or (n, k): each field's 3-vector turned by R."""
+    k = X.shape[1:]
+    return (R @ X.reshape((-1, 3) + k)).reshape(X.shape) if k else (X.reshape(-1, 3) @ R.T).ravel()
 
-    For rows kron(v_k, u_i): Tᵀ kron(v, u) = kron(v, Rᵀu), so with Y_k = S₀⁻¹ [kron(v_k, e_l)]_l
-    (n × 3, once) and Γ_kl = [kron(v_k, e_a)ᵀ S₀⁻¹ kron(v_l, e_b)]_ab (3 × 3, once):
-    C S⁻¹ Cᵀ = [(Rᵀu_i)ᵀ Γ_{k_i k_j} (Rᵀu_j)]_ij, and S⁻¹ Cᵀ Δλ = T Σ_i Δλ_i Y_{k_i} Rᵀu_i.
-    Then Δλ = (C S⁻¹ Cᵀ)⁻¹ (g − C S⁻¹ r) and Δq = −S⁻¹ (r + Cᵀ Δλ).
+
+class _BorderedKKT:
+    """Newton corrections for S = T S₀ Tᵀ (+ X Y) bordered by the constraints.
+
+    With z = S_T⁻¹ r (S_T = T S₀ Tᵀ, so S_T⁻¹ = T S₀⁻¹ Tᵀ) and the border columns
+    B = S_T⁻¹ [Cᵀ | X]:
+
+        [C S_T⁻¹ Cᵀ   C S_T⁻¹ X    ] [Δλ]   [g − C z]
+        [Y S_T⁻¹ Cᵀ   I + Y S_T⁻¹ X] [y ] = [−Y z   ],    Δq = −(z + B [Δλ; y])
+
+    is the Woodbury form of [S Cᵀ; C 0] [Δq; Δλ] = −[r; g] (y = Y Δq). For rows
+    kron(v_k, u_i), S_T⁻¹ c_i = T Y_k Rᵀu_i with Y_k = S₀⁻¹ [kron(v_k, e_l)]_l solved once,
+    and C S_T⁻¹ Cᵀ = [(Rᵀu_i)ᵀ Γ_{k_i k_j} (Rᵀu_j)] with Γ_kl = kron(v_k, I)ᵀ Y_l.
     """
 
-    def __init__(self, body: Body, constraints: Constraints, solve: Solve) -> None:
-        self.solve0 = solve
+    def __init__(self, body: Body, constraints: Constraints, solve: Solve,
+                 apply_A: Callable[[np.ndarray], np.ndarray], geometric: bool) -> None:
+        self.body, self.c, self.solve0, self.apply_A = body, constraints, solve, apply_A
+        self.geometric = geometric
         self.nf = body.field_count
-        self.c = constraints
         m = constraints.count
         if m:
             nv = len(constraints.vectors)
@@ -304,22 +356,38 @@ class _RotatedKKT:
             self.blocks = np.zeros((3 * m, m))                         # block-diagonal Rᵀu_i
             self.block_index = (np.arange(3 * m), np.repeat(np.arange(m), 3))
 
-    def prepare(self, R: np.ndarray, U: np.ndarray) -> None:
-        """Fix T = I ⊗ R and the constraint directions U for the iterations that follow."""
-        self.R = R
-        if self.c.count:
-            self.Ru = U @ R                                         # rows (Rᵀ u_i)ᵀ
+    def prepare(self, q: np.ndarray, es: ElasticState, U: np.ndarray, exact: bool) -> None:
+        """Fix R, the constraint directions U and (``exact``) the rank-9 term for the step."""
+        R, m = es.rotation, self.c.count
+        self.R, self.U = R, U
+        borders, rows = [], []
+        if m:
             B = self.blocks
-            B[self.block_index] = self.Ru.ravel()
-            self.schur_inv = np.linalg.inv(B.T @ (self.gamma @ B))
+            B[self.block_index] = (U @ R).ravel()                     # Rᵀ u_i
+            borders.append(_rotate(R, self.Y @ B))                    # S_T⁻¹ Cᵀ
+            matrix = B.T @ (self.gamma @ B)
+        if exact:
+            X, self.Yrows = frame_update(self.body, q, es, self.apply_A, self.geometric)
+            SX = _rotate(R, np.asarray(self.solve0(_rotate(R.T, X))))
+            inner = np.eye(X.shape[1]) + self.Yrows @ SX
+            if m:
+                CSX = self.c.values(SX, U)
+                matrix = np.block([[matrix, CSX], [self.Yrows @ borders[0], inner]])
+            else:
+                matrix = inner
+            borders.append(SX)
+        self.exact = exact
+        self.border = np.hstack(borders) if borders else None
+        self.inverse = np.linalg.inv(matrix) if borders else None
 
     def solve(self, r: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(Δq, Δλ) for the residuals r, g with the prepared R and U."""
-        nf, R = self.nf, self.R
-        z = self.solve0((r.reshape(nf, 3) @ R).ravel())
-        if not self.c.count:
-            return -(z.reshape(nf, 3) @ R.T).ravel(), g
-        Cz = (self.Ru * (self.c.row_vectors @ z.reshape(nf, 3))).sum(axis=1)
-        dlam = self.schur_inv @ (g - Cz)
-        y = z + self.Y @ (dlam[:, None] * self.Ru).ravel()
-        return -(y.reshape(nf, 3) @ R.T).ravel(), dlam
+        """(Δq, Δλ) for the residuals r, g with what :meth:`prepare` fixed."""
+        R, m = self.R, self.c.count
+        z = _rotate(R, np.asarray(self.solve0(_rotate(R.T, r))))
+        if self.border is None:
+            return -z, g[:0]
+        rhs = g - self.c.values(z, self.U)
+        if self.exact:
+            rhs = np.concatenate([rhs, -(self.Yrows @ z)])
+        sol = self.inverse @ rhs
+        return -(z + self.border @ sol), sol[:m]

@@ -86,8 +86,12 @@ class Constraints:
         return U
 
     def values(self, q: np.ndarray, U: np.ndarray) -> np.ndarray:
-        """u_i · (Qᵀ v_{k_i}) for the directions U (without the targets)."""
-        return (U * (self.row_vectors @ q.reshape(-1, 3))).sum(axis=1)
+        """C q = [u_i · (Qᵀ v_{k_i})]_i for the directions U (without the targets); for q of
+        shape (n, k), C applied to each column (m, k)."""
+        if q.ndim == 1:
+            return (U * (self.row_vectors @ q.reshape(-1, 3))).sum(axis=1)
+        X = self.row_vectors @ q.reshape(self.row_vectors.shape[1], 3 * q.shape[1])
+        return (U[:, :, None] * X.reshape(len(U), 3, q.shape[1])).sum(axis=1)
 
     def residual(self, q: np.ndarray, U: np.ndarray) -> np.ndarray:
         """g(q, t) = values − d for the directions U = u(t)."""

@@ -44,7 +44,7 @@ class SceneError(ValueError):
     """A scene that does not fit the body (an unknown group, a joint the group cannot carry)."""
 
 LOAD_TIMES = ("constant", "ramp", "harmonic")
-JACOBIANS = ("rotated", "exact")
+JACOBIANS = ("rotated", "exact", "assembled")
 
 
 @dataclass(frozen=True)
@@ -116,9 +116,10 @@ class Initial:
 class Solver:
     """Newton on the generalized-α step: increments below ``tolerance`` × body size end it.
 
-    ``jacobian``: "rotated" factorises β'Mr + γ'D + Kr once and rotates it with the frame
-    (the exact tangent minus the change-of-frame terms); "exact" assembles the exact
-    tangent and solves with it in every iteration.
+    ``jacobian`` (``integrator`` explains them): "rotated" (the factorised iteration matrix
+    turned with the frame; exact terms added to a step that converges slowly), "exact"
+    (with the change-of-frame terms from the first iteration) or "assembled" (the exact
+    matrix assembled and factorised every iteration: the baseline).
     """
 
     tolerance: float = 1e-10

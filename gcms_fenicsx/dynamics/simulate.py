@@ -14,8 +14,8 @@ from dataclasses import asdict
 import numpy as np
 
 from gcms_fenicsx.dynamics.body import Body, body_from_reduced
-from gcms_fenicsx.dynamics.integrator import (Factorize, GeneralizedAlpha, IntegrationError,
-                                              dense_factorization)
+from gcms_fenicsx.dynamics.integrator import (Elastic, Factorize, GeneralizedAlpha,
+                                              IntegrationError, dense_factorization)
 from gcms_fenicsx.dynamics.joints import build_constraints
 from gcms_fenicsx.dynamics.loads import external_forces
 from gcms_fenicsx.dynamics.recorder import Recorder
@@ -54,9 +54,12 @@ def initial_coordinates(body: Body, initial: Initial) -> np.ndarray:
 
 
 def simulate_body(body: Body, scene: Scene, *, factorize: Factorize = dense_factorization,
-                  progress: Progress = quiet,
+                  elastic: Elastic | None = None, progress: Progress = quiet,
                   model_hash: str = "") -> tuple[Trajectory, dict]:
-    """Run ``scene`` on ``body``: the recorded trajectory and the summary (``summary.json``)."""
+    """Run ``scene`` on ``body``: the recorded trajectory and the summary (``summary.json``).
+
+    ``factorize`` and ``elastic`` as in :class:`~gcms_fenicsx.dynamics.integrator.GeneralizedAlpha`.
+    """
     report = progress
     scene.check_groups(body.groups)
     t_setup = time.perf_counter()
@@ -65,7 +68,7 @@ def simulate_body(body: Body, scene: Scene, *, factorize: Factorize = dense_fact
     forces = external_forces(body, scene.gravity, scene.loads)
     integrator = GeneralizedAlpha(body, constraints, forces, scene.time_step_s, scene.rho_inf,
                                   (scene.damping_alpha, scene.damping_beta), scene.solver,
-                                  factorize)
+                                  factorize, elastic)
     v_rigid = body.rigid_velocity(q, np.array(scene.initial.velocity),
                                   np.array(scene.initial.angular_velocity))
     v = integrator.project_velocity(0.0, q, v_rigid)
