@@ -24,18 +24,19 @@ def plot_trajectory(traj: Trajectory, path: Path, sensor: str) -> None:
     plt = _pyplot()
     t, x = traj.time, traj.groups[sensor]["position"]
     d = x - x[0]
+    scale, unit = (1e3, "mm") if np.abs(d).max() > 1e-4 else (1e6, "µm")
     fig, (left, right) = plt.subplots(1, 2, figsize=(11.5, 4.3))
     for k, name in enumerate("xyz"):
-        left.plot(t, 1e3 * d[:, k], label=f"{name}")
+        left.plot(t, scale * d[:, k], label=f"{name}")
     left.set_xlabel("time [s]")
-    left.set_ylabel(f"displacement of {sensor} [mm]")
+    left.set_ylabel(f"displacement of {sensor} [{unit}]")
     left.legend(loc="best")
     left.grid(alpha=0.3)
-    a, b = np.argsort(np.ptp(x, axis=0))[::-1][:2]
-    right.plot(x[:, a], x[:, b], lw=1.0)
-    right.plot(x[:1, a], x[:1, b], "o", label="start")
-    right.set_xlabel(f"{'xyz'[a]} [m]")
-    right.set_ylabel(f"{'xyz'[b]} [m]")
+    a, b = np.sort(np.argsort(np.ptp(x, axis=0))[::-1][:2])
+    right.plot(scale * d[:, a], scale * d[:, b], lw=0.8)
+    right.plot([0.0], [0.0], "o", label="start")
+    right.set_xlabel(f"{'xyz'[a]} displacement [{unit}]")
+    right.set_ylabel(f"{'xyz'[b]} displacement [{unit}]")
     right.set_aspect("equal", adjustable="datalim")
     right.legend(loc="best")
     right.grid(alpha=0.3)
@@ -71,8 +72,33 @@ def plot_energy(traj: Trajectory, path: Path) -> None:
     plt.close(fig)
 
 
+def plot_joints(traj: Trajectory, path: Path) -> None:
+    """Every joint's force on the body (magnitude) and its moments, against time."""
+    plt = _pyplot()
+    joints = list(dict.fromkeys(r["joint"] for r in traj.rows))
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
+    for name in joints:
+        top.plot(traj.time, np.linalg.norm(traj.joint_force(name), axis=1), label=name)
+        for i, r in enumerate(traj.rows):
+            if r["joint"] == name and r["unit"] == "N*m":
+                axis = np.round(r["axis"], 2).tolist()
+                bottom.plot(traj.time, -traj.multipliers[:, i], lw=0.9,
+                            label=f"{name}: {r['kind'].replace('_', ' ')} about {axis}")
+    top.set_ylabel("|joint force on body| [N]")
+    top.legend(loc="best", fontsize=8)
+    top.grid(alpha=0.3)
+    bottom.set_ylabel("moment on body [N·m]")
+    bottom.set_xlabel("time [s]")
+    bottom.legend(loc="best", fontsize=7)
+    bottom.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def plot_results(traj: Trajectory, folder: Path) -> list[str]:
-    """trajectory.png (first output group) and energy.png, where the data exist; their names."""
+    """trajectory.png (first output group), energy.png and joints.png, where the data exist;
+    their names."""
     written = []
     if traj.groups and len(traj.time) > 1:
         plot_trajectory(traj, folder / "trajectory.png", next(iter(traj.groups)))
@@ -80,4 +106,7 @@ def plot_results(traj: Trajectory, folder: Path) -> list[str]:
     if traj.energy and len(traj.time) > 1:
         plot_energy(traj, folder / "energy.png")
         written.append("energy.png")
+    if traj.rows and len(traj.time) > 1:
+        plot_joints(traj, folder / "joints.png")
+        written.append("joints.png")
     return written

@@ -62,9 +62,9 @@ def simulation_summary(summary: dict) -> str:
         f"simulation: {summary['steps']} steps to t = {summary['time_reached_s']:.6g} s, "
         f"{state}",
         f"  {summary['reduced_dofs']} coordinates, {summary['constraint_rows']} constraint rows, "
-        f"{summary['steps_per_second']:.0f} steps/s, {summary['newton_iterations_mean']:.2f} "
-        f"Newton iterations per step",
-        f"  relative energy drift {summary['energy_drift_rel']:.2e}",
+        f"{_number(summary['steps_per_second'], '.0f')} steps/s, "
+        f"{_number(summary['newton_iterations_mean'], '.2f')} Newton iterations per step",
+        f"  relative energy drift {_number(summary['energy_drift_rel'], '.2e')}",
     ])
 
 
@@ -89,3 +89,7 @@ def simulate_command(config: Path | None, out: Path) -> str:
     if not summary["complete"]:
         raise SimulationIncomplete("\n".join(texts))
     return "\n".join(texts)
+
+
+def _number(value: float | None, spec: str) -> str:
+    return "n/a" if value is None else format(value, spec)

@@ -13,6 +13,14 @@ damping (β = 4 ms: about 5 % of critical in the first pinned bending mode, typi
 soft polymer). Wall times of every simulation are measured in the same run (one BLAS
 thread), and the speedups are their ratios.
 
+A stiffness sweep (E from 3 GPa down to the study's 0.1 GPa, undamped) shows what decides
+the agreement with (b): the swing stretches the beam (axial force N ≈ 2.5 m g at the
+bottom), and in SVK that tension stiffens bending — by N L² / EI ≈ 2.5 Λ with
+Λ = ρ g L³ / (E r²) (r the section's radius of gyration) — which no co-rotated linear
+model, reduced or full, contains. The tip deviation grows with Λ too (≈ 0.6 % of L per
+unit Λ), so a pendulum soft enough to deviate by 1 % of its length is deep in the
+stiffening regime.
+
     python workflows/flexible_pendulum.py [--out docs/flexible_pendulum] [--quick]
 
 writes OUT.json, OUT.png and prints the tables recorded in docs/flexible_pendulum.md.
@@ -37,6 +45,7 @@ import numpy as np
 MODE_COUNTS = (5, 10, 15, 20, 30)
 TOLERANCES = (1e-10, 1e-6, 1e-4, 1e-3)   # cosine and SVD tolerance together
 DAMPING_BETA_S = 4e-3
+SWEEP_E_PA = (3e9, 1e9, 3e8)       # with the study's 1e8 from the main table
 #: Newton tolerance of reference (b): its tangent differs from the co-rotated one by stress
 #: stiffening, so Newton converges linearly; 1e-8 of the body size leaves a few µm.
 SVK_TOLERANCE = 1e-8
@@ -71,15 +80,13 @@ def setup(quick: bool):
 
 def gcms_body(cfg, model, modes, body_mesh, nm: int, tolerance: float | None):
     """(body, reduction report, reduction wall time) for nm modes at one tolerance."""
-    from gcms_fenicsx.config import parse_config
     from gcms_fenicsx.dynamics.body import body_from_reduced
-    from gcms_fenicsx.pendulum import STUDY
     from gcms_fenicsx.reduce import reduce_body
+    from gcms_fenicsx.selection import SelectionConfig
 
-    table = dict(STUDY, modes={"count": nm})
-    if tolerance is not None:
-        table["selection"] = {"cosine_tolerance": tolerance ** 2, "svd_tolerance": tolerance}
-    cfg_t = parse_config(table)
+    selection = SelectionConfig() if tolerance is None else \
+        SelectionConfig(cosine_tolerance=tolerance ** 2, svd_tolerance=tolerance)
+    cfg_t = replace(cfg, modes=replace(cfg.modes, count=nm), selection=selection)
     t0 = time.perf_counter()
     reduced, report = reduce_body(model, modes.lowest(nm), body_mesh, cfg_t, {})
     return body_from_reduced(reduced), report, time.perf_counter() - t0
@@ -151,6 +158,64 @@ def study(damping: float, cfg, body_mesh, model, modes, groups, scene, quick: bo
     return out
 
 
+def stiffness_sweep(cfg, body_mesh, groups_of, scene, quick: bool) -> list[dict]:
+    """(a), (b) and GCMS (Nm = 10, 20) at stiffer materials: where GCMS meets SVK."""
+    from gcms_fenicsx import eigen, fe, pendulum
+    from gcms_fenicsx.full_order import full_order_body, sparse_factorization, svk_elastic
+    from gcms_fenicsx.material import Material
+
+    rows = []
+    for E in (SWEEP_E_PA[:1] if quick else SWEEP_E_PA):
+        material = Material(E=E, nu=cfg.material.nu, rho=cfg.material.rho)
+        model = fe.assemble(body_mesh.mesh, material)
+        modes = eigen.solve_free_free(model, replace(cfg.modes, count=20))
+        full = full_order_body(model, groups_of(model))
+        rigid = pendulum.rigid_pendulum(full, np.array(scene.gravity), scene.end_time_s)
+        until = min(rigid.half_period_s, scene.end_time_s)
+        svk_scene = replace(scene, solver=replace(scene.solver, tolerance=SVK_TOLERANCE,
+                                                  max_iterations=60))
+        refs = {"a": run(full, scene, factorize=sparse_factorization),
+                "b": run(full, svk_scene, factorize=sparse_factorization,
+                         elastic=svk_elastic(model, full))}
+        dev = {k: pendulum.tip_deviation(rigid, r["time"], r["tip"]) for k, r in refs.items()}
+        k = refs["a"]["time"] <= until + 1e-12
+        second = full.centred.T @ (full.gram @ full.centred) / full.total_mass_kg
+        r2 = float(np.sort(np.linalg.eigvalsh(second))[1])     # section's r² (bending plane)
+        lam = cfg.material.rho * 9.81 * pendulum.LENGTH_M ** 3 / (E * r2)
+        row = {"E_pa": E, "lambda": lam, "tension_parameter": 2.5 * lam,
+               "max_deviation_over_length": float(np.linalg.norm(dev["a"][k], axis=1).max()
+                                                  / pendulum.LENGTH_M),
+               "a_vs_b": pendulum.deviation_error(refs["a"]["time"], dev["a"], dev["b"], until),
+               "reference_wall_s": {key: r["wall_s"] for key, r in refs.items()}}
+        for nm in (10, 20):
+            body, _, _ = gcms_body(cfg_with(cfg, material), model, modes, body_mesh, nm, None)
+            r = run(body, scene)
+            d = pendulum.tip_deviation(rigid, r["time"], r["tip"])
+            row[f"gcms{nm}_vs_a"] = pendulum.deviation_error(r["time"], d, dev["a"], until)
+            row[f"gcms{nm}_vs_b"] = pendulum.deviation_error(r["time"], d, dev["b"], until)
+        rows.append(row)
+        log(f"[sweep] E = {E:.0e} Pa: Λ = {lam:.2f}, deviation {row['max_deviation_over_length']:.3%}"
+            f" of L, (a) vs (b) {row['a_vs_b']:.2%}, GCMS10 vs (a) {row['gcms10_vs_a']:.2%}, "
+            f"vs (b) {row['gcms10_vs_b']:.2%}")
+    return rows
+
+
+def cfg_with(cfg, material):
+    return replace(cfg, material=material)
+
+
+def sweep_table(rows: list[dict]) -> str:
+    lines = ["| E GPa | Λ = ρgL³/(Er²) | tension N L²/EI | tip deviation / L | (a) vs (b) "
+             "| GCMS Nm=10 vs (a) | vs (b) | GCMS Nm=20 vs (a) | vs (b) |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['E_pa'] / 1e9:g} | {r['lambda']:.3f} | {r['tension_parameter']:.2f} "
+                     f"| {r['max_deviation_over_length']:.3%} | {r['a_vs_b']:.2%} "
+                     f"| {r['gcms10_vs_a']:.2%} | {r['gcms10_vs_b']:.2%} "
+                     f"| {r['gcms20_vs_a']:.2%} | {r['gcms20_vs_b']:.2%} |")
+    return "\n".join(lines)
+
+
 def table(result: dict) -> str:
     ref = result["references"]
     lines = [f"damping β = {result['damping_beta_s']:g} s: tip deviation up to "
@@ -211,20 +276,33 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("docs/flexible_pendulum"))
     parser.add_argument("--quick", action="store_true", help="0.3 s, fewer cases (smoke run)")
+    parser.add_argument("--sweep-only", action="store_true", help="only the stiffness sweep")
     args = parser.parse_args()
     logging.disable(logging.INFO)
+    from gcms_fenicsx.node_groups import group_weights
+
     cfg, body_mesh, model, modes, groups, scene, offline_s = setup(args.quick)
+    if args.sweep_only:
+        rows = stiffness_sweep(cfg, body_mesh, lambda m: group_weights(body_mesh, m.Vs), scene,
+                               args.quick)
+        Path(f"{args.out}_sweep.json").write_text(json.dumps(rows, indent=1))
+        print(sweep_table(rows))
+        return
     log(f"setup: {model.ndofs} DOFs, {len(modes.elastic_eigenvalues)} modes in {offline_s:.1f} s")
     results = [study(beta, cfg, body_mesh, model, modes, groups, scene, args.quick)
                for beta in (0.0, DAMPING_BETA_S)]
     for r in results:
         r["eigensolve_and_assembly_s"] = offline_s
+    sweep = stiffness_sweep(cfg, body_mesh, lambda m: group_weights(body_mesh, m.Vs), scene,
+                            args.quick)
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    Path(f"{args.out}.json").write_text(json.dumps(results, indent=1))
+    Path(f"{args.out}.json").write_text(json.dumps({"studies": results, "sweep": sweep},
+                                                   indent=1))
     plot(results, Path(f"{args.out}.png"))
     for r in results:
         print(table(r))
         print()
+    print(sweep_table(sweep))
 
 
 if __name__ == "__main__":

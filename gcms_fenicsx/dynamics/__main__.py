@@ -14,6 +14,7 @@ from gcms_fenicsx.config import load_config
 from gcms_fenicsx.dynamics.results import write_results
 from gcms_fenicsx.dynamics.scene import SceneError
 from gcms_fenicsx.dynamics.simulate import simulate
+from gcms_fenicsx.errors import ComputationFailed
 from gcms_fenicsx.outputs import staged_output, write_json
 from gcms_fenicsx.progress import progress_printer
 from gcms_fenicsx.reduced_model import ReducedModelError, read_reduced
@@ -39,8 +40,11 @@ def main(argv: list[str] | None = None) -> int:
     except (ConfigError, SceneError, ReducedModelError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except ComputationFailed as exc:
+        print(f"failed: {exc}", file=sys.stderr)
+        return 1
     state = "complete" if summary["complete"] else f"INCOMPLETE: {summary['message']}"
-    print(f"{summary['steps']} steps, {summary['steps_per_second']:.0f} steps/s, {state}; "
+    print(f"{summary['steps']} steps to t = {summary['time_reached_s']:.6g} s, {state}; "
           f"results in {args.out}/")
     return 0 if summary["complete"] else 1
 

@@ -110,14 +110,14 @@ class Body:
         """c = Qᵀ g1 / m."""
         return q.reshape(-1, 3).T @ self.field_mass / self.total_mass_kg
 
-    def linear_momentum(self, v: np.ndarray) -> np.ndarray:
-        """p = Σ_i m_i v_i = Q̇ᵀ g1."""
-        return v.reshape(-1, 3).T @ self.field_mass
-
-    def angular_momentum(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """L = ∫ρ x × ẋ dV = Σ_f Q_f × (G Q̇)_f about the origin: ε_ijk (Qᵀ G Q̇)_jk."""
-        M = q.reshape(-1, 3).T @ np.asarray(self.gram @ v.reshape(-1, 3))
-        return np.array([M[1, 2] - M[2, 1], M[2, 0] - M[0, 2], M[0, 1] - M[1, 0]])
+    def momenta(self, q: np.ndarray, v: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+        """Kinetic energy ½ q̇ᵀ Mr q̇ = ½ Q̇ : G Q̇, linear momentum Q̇ᵀ g1 and angular momentum
+        L = ∫ρ x × ẋ dV = Σ_f Q_f × (G Q̇)_f about the origin (ε_ijk (Qᵀ G Q̇)_jk)."""
+        V = v.reshape(-1, 3)
+        GV = np.asarray(self.gram @ V)
+        M = q.reshape(-1, 3).T @ GV
+        return (0.5 * float(np.vdot(V, GV)), V.T @ self.field_mass,
+                np.array([M[1, 2] - M[2, 1], M[2, 0] - M[0, 2], M[0, 1] - M[1, 0]]))
 
     def rigid_velocity(self, q: np.ndarray, velocity: np.ndarray,
                        angular_velocity: np.ndarray) -> np.ndarray:

@@ -33,6 +33,11 @@ solve with S₀ and small dense algebra. ``[scene.solver] jacobian``:
   change-of-frame terms (strain-sized, but multiplied by 1 + γ'β under stiffness-
   proportional damping); a step whose iteration contracts slower than
   ``UPGRADE_RATE`` per iteration continues with the rank-9 term.
+In every mode, a correction that is not smaller than ``UPGRADE_RATE`` times the previous
+one is discarded and recomputed with the iteration matrix re-linearised at the current
+iterate (R, and the rank-9 term where the elastic model allows), and the rest of that step
+is full Newton (re-linearised at every iterate): a step with a large, fast change of frame
+converges quadratically instead of slowly or not at all.
 - "exact": T S₀ Tᵀ + X Y from the first iteration of every step.
 - "assembled": the same exact S, assembled densely and LU-factorised in every iteration —
   the textbook Newton, kept as the baseline the benchmarks compare against (dense bodies).
@@ -65,22 +70,29 @@ from gcms_fenicsx.dynamics.joints import Constraints
 from gcms_fenicsx.dynamics.loads import ExternalForces
 from gcms_fenicsx.dynamics.rotation import rotation_rate, skew
 from gcms_fenicsx.dynamics.scene import Solver
+from gcms_fenicsx.errors import ComputationFailed
 
 Solve = Callable[[np.ndarray], np.ndarray]
 Factorize = Callable[[Any], Solve]
-#: "rotated": a step whose Newton increments shrink by less than this factor per iteration
-#: continues with the exact (rank-9-corrected) iteration matrix.
-UPGRADE_RATE = 0.25
+#: A Newton correction that does not shrink by this factor switches the rest of the step to
+#: full Newton (with the rank-9 term). A re-linearisation costs about three iterations, so
+#: it pays only where the plain iteration is slow or diverges (under strong stiffness-
+#: proportional damping the rate exceeds 1).
+UPGRADE_RATE = 0.6
 #: q ↦ an object with ``force`` (∂V/∂q), ``energy`` (V) and ``rotation`` (R of the frame).
 Elastic = Callable[[np.ndarray], Any]
 
 
-class IntegrationError(RuntimeError):
-    """Newton did not converge, or the state stopped being finite: says when and how far."""
+class IntegrationError(ComputationFailed):
+    """Newton did not converge, the state stopped being finite, or the iteration matrix is
+    singular: says when and how far."""
 
     def __init__(self, message: str, time_s: float) -> None:
         super().__init__(message)
         self.time_s = time_s
+
+    def __reduce__(self):  # picklable, so MPI can send it from the rank that saw it
+        return (type(self), (str(self), self.time_s))
 
 
 def dense_factorization(A: np.ndarray) -> Solve:
@@ -221,15 +233,36 @@ class GeneralizedAlpha:
         return self._mass_solve
 
     def project_velocity(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """The q̇ nearest v in the Mr-norm with ġ = C q̇ + Ċ q = 0."""
+        """The initial q̇: v corrected by the rigid velocity nearest it (kinetic-energy norm)
+        that makes ġ = C q̇ + Ċ q = 0.
+
+        Correcting within the six rigid velocities (``Body.rigid_velocity`` at q) turns, say,
+        a spin the joints forbid into the rotation about the joint they allow, instead of
+        putting the difference into the stiffest elastic coordinates; only what no rigid
+        velocity can satisfy (a joint that constrains deformation rates) is corrected in
+        the Mr-norm over all coordinates.
+        """
         c = self.constraints
         if not c.count:
             return v
         U, dU = c.directions_at(t), c.directions_at(t, 1)
         C = c.jacobian(U)
-        MinvCt = self.mass_solve()(C.T)
         violation = C @ v + c.values(q, dU)
-        return v - MinvCt @ np.linalg.solve(C @ MinvCt, violation)
+        E = np.eye(3)
+        rigid = np.column_stack([self.body.rigid_velocity(q, E[k], np.zeros(3)) for k in range(3)]
+                                + [self.body.rigid_velocity(q, np.zeros(3), E[k])
+                                   for k in range(3)])
+        # min |W a|²_M  subject to  C W a = −violation  (minimum-norm if C W is rank-deficient)
+        CW = C @ rigid
+        weight = rigid.T @ np.asarray(self.body.mass @ rigid)
+        L_inv = np.linalg.inv(np.linalg.cholesky(weight))
+        a = -L_inv.T @ (np.linalg.pinv(CW @ L_inv.T, rcond=1e-10) @ violation)
+        v = v + rigid @ a
+        rest = C @ v + c.values(q, dU)
+        if np.linalg.norm(rest) > 1e-12 * max(np.linalg.norm(violation), 1e-300):
+            MinvCt = self.mass_solve()(C.T)
+            v = v - MinvCt @ np.linalg.solve(C @ MinvCt, rest)
+        return v
 
     def start(self, q: np.ndarray, v: np.ndarray, t: float = 0.0) -> tuple[State, StepInfo]:
         """The state at t with consistent q̈ and λ: [Mr Cᵀ; C 0] [q̈; λ] = [f; −(2Ċq̇ + C̈q)]."""
@@ -268,8 +301,8 @@ class GeneralizedAlpha:
         lam = s.lam.copy()
         c = self.constraints
         U = c.directions_at(t1)
-        mass, total, tol = self.body.mass, self.body.total_mass_kg, self.tolerance_m
-        previous, upgrade = np.inf, False
+        tol = self.tolerance_m
+        previous, full_newton = np.inf, False
         jacobian = self.solver.jacobian
         exact = jacobian != "rotated"
         for iteration in range(1, self.solver.max_iterations + 1):
@@ -278,10 +311,17 @@ class GeneralizedAlpha:
             if jacobian == "assembled":
                 dq, dlam = self._assembled_correction(q, self.linear_state(q, es), r, g, U)
             else:
-                if iteration == 1 or upgrade:
+                if iteration == 1 or full_newton:
                     self.kkt.prepare(q, self.linear_state(q, es), U, exact)
                 dq, dlam = self.kkt.solve(r, g)
-            delta = float(np.sqrt(abs(dq @ (mass @ dq)) / total))
+                if not full_newton and self._norm(dq) > UPGRADE_RATE * previous:
+                    # slow or diverging with the step's first linearisation: full Newton,
+                    # re-linearised at every iterate for the rest of the step
+                    exact = exact or self.can_upgrade
+                    full_newton = True
+                    self.kkt.prepare(q, self.linear_state(q, es), U, exact)
+                    dq, dlam = self.kkt.solve(r, g)
+            delta = self._norm(dq)
             if not delta < np.inf:
                 raise IntegrationError(f"the state is no longer finite at t = {t1:.6g} s "
                                        f"(Newton iteration {iteration})", t1)
@@ -291,18 +331,20 @@ class GeneralizedAlpha:
             lam += dlam
             if delta <= tol or delta * delta <= tol * (previous - delta) < np.inf:
                 break
-            upgrade = not exact and self.can_upgrade and delta > UPGRADE_RATE * previous
-            exact = exact or upgrade
             previous = delta
         else:
             raise IntegrationError(
                 f"Newton did not converge at t = {t1:.6g} s: {iteration} iterations, last "
-                f"increment {delta:.3e} m (tolerance {tol:.1e} m), residual |r| = "
+                f"increment {delta:.3e} m (tolerance {tol:.1e} m), residual before it |r| = "
                 f"{np.linalg.norm(r):.3e}, |g| = {np.linalg.norm(g) if c.count else 0.0:.3e}; "
                 "reduce [scene] time_step or raise [scene.solver] max_iterations", t1)
         a1 = a1 + (1.0 - p.alpha_f) / (1.0 - p.alpha_m) * (acc - s.acc)
         return (State(t=t1, q=q, v=v, acc=acc, a=a1, lam=lam),
                 StepInfo(es, fd, dissipation, U, iteration))
+
+    def _norm(self, dq: np.ndarray) -> float:
+        """The mass-weighted RMS size of a correction, √(Δqᵀ Mr Δq / m) (metres)."""
+        return float(np.sqrt(abs(dq @ (self.body.mass @ dq)) / self.body.total_mass_kg))
 
     def _assembled_correction(self, q: np.ndarray, es: ElasticState, r: np.ndarray,
                               g: np.ndarray, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

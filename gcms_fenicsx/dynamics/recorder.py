@@ -73,15 +73,15 @@ class Recorder:
         for rows, pos, vel in self.groups.values():
             pos[k] = Q.T @ rows.position
             vel[k] = V.T @ rows.position
-        self.momentum["linear"][k] = self.body.linear_momentum(s.v)
-        self.momentum["angular"][k] = self.body.angular_momentum(s.q, s.v)
+        kinetic, self.momentum["linear"][k], self.momentum["angular"][k] = \
+            self.body.momenta(s.q, s.v)
         if self.multipliers.shape[1]:
             self.multipliers[k] = s.lam
         for name, series in self.coordinates.items():
             series[k] = s.q if name == "q" else s.v
         if self.energy:
             e = self.energy
-            e["kinetic"][k] = 0.5 * float(s.v @ (self.body.mass @ s.v))
+            e["kinetic"][k] = kinetic
             e["elastic"][k] = info.elastic.energy
             e["gravity"][k] = self.forces.gravity_potential(s.q)
             e["load_work"][k], e["constraint_work"][k], e["damping_dissipation"][k] = self._work

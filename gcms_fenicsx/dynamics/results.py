@@ -62,10 +62,10 @@ class Trajectory:
         return -self.multipliers[:, cols]
 
 
-def energy_drift(energy: dict[str, np.ndarray]) -> float:
+def energy_drift(energy: dict[str, np.ndarray]) -> float | None:
     """max |balance error| over the run / max (kinetic + elastic): the relative energy drift."""
     if not energy or len(energy["balance_error"]) == 0:
-        return float("nan")
+        return None
     scale = max(float(np.max(energy["kinetic"] + energy["elastic"])),
                 float(np.max(np.abs(energy["load_work"]))),
                 float(np.max(np.abs(energy["constraint_work"]))))

@@ -11,6 +11,8 @@ time_step = 1e-3               # s
 rho_inf = 0.8                  # spectral radius at infinite frequency, 0..1
 gravity = [0.0, 0.0, -9.81]    # m/s²
 damping = { alpha = 0.0, beta = 0.0 }   # co-rotated Rayleigh: α Mr + β Kr on deformation rates
+                                        # (relative to the body frame: a jointed body whose
+                                        # frame follows its bending is damped by β, hardly α)
 solver = { tolerance = 1e-10, max_iterations = 25, jacobian = "rotated" }
 initial = { velocity = [0, 0, 0], angular_velocity = [0, 0, 0], mode = 1, amplitude = 1e-3 }
 outputs = { groups = ["end_xL"], every = 1, energy = true, constraint_forces = true,
@@ -155,7 +157,8 @@ class Scene:
 
     @property
     def steps(self) -> int:
-        """Steps to reach end_time (the last one lands on it to within 1e-9 of a step)."""
+        """Steps of time_step to reach end_time: the run ends at the first step at or beyond
+        it (exactly on it when end_time is a multiple of time_step, to 1e-9 of a step)."""
         return max(1, math.ceil(self.end_time_s / self.time_step_s - 1e-9))
 
     def groups_used(self) -> list[str]:

@@ -74,7 +74,11 @@ def simulate_body(body: Body, scene: Scene, *, factorize: Factorize = dense_fact
     v = integrator.project_velocity(0.0, q, v_rigid)
     kinetic_given = 0.5 * float(v_rigid @ (body.mass @ v_rigid))
     kinetic_kept = 0.5 * float(v @ (body.mass @ v))
-    state, info = integrator.start(q, v)
+    try:
+        state, info = integrator.start(q, v)
+    except InvertedBodyError as exc:
+        raise SceneError(f"[scene.initial] the initial state inverts the body: {exc}; lower "
+                         "amplitude") from exc
     steps = scene.steps
     recorder = Recorder(body, constraints, forces, scene.outputs, steps, scene.time_step_s)
     recorder.step(0, state, info)
@@ -121,14 +125,14 @@ def simulate_body(body: Body, scene: Scene, *, factorize: Factorize = dense_fact
         "rho_inf": scene.rho_inf,
         "wall_time_s": wall,
         "setup_time_s": setup_s,
-        "steps_per_second": done / wall if wall > 0 else float("nan"),
-        "time_per_step_us": 1e6 * wall / done if done else float("nan"),
+        "steps_per_second": done / wall if done and wall > 0 else None,
+        "time_per_step_us": 1e6 * wall / done if done else None,
         "reduced_dofs": body.dofs,
         "constraint_rows": constraints.count,
-        "newton_iterations_mean": iterations / done if done else float("nan"),
+        "newton_iterations_mean": iterations / done if done else None,
         "newton_iterations_max": int(traj.newton_iterations.max(initial=0)),
         "jacobian": scene.solver.jacobian,
-        "energy_drift_rel": energy_drift(traj.energy),
+        "energy_drift_rel": energy_drift(traj.energy) if len(traj.time) > 1 else None,
         "linear_momentum_change": float(np.abs(p - p[0]).max()) if len(p) else 0.0,
         "initial_kinetic_energy_j": kinetic_kept,
         "initial_kinetic_energy_removed_by_joints_j": kinetic_given - kinetic_kept,
