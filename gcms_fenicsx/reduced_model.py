@@ -1,8 +1,8 @@
 """The reduced GCMS body and its HDF5 file: what a simulation needs, and nothing of the FE model.
 
 ``gcms reduce`` writes one ``reduced.h5`` per body (DESIGN §4); the standalone integrator
-(DESIGN §5) reads it. This module therefore imports NumPy and h5py only, so the file can be
-read without dolfinx, PETSc, MPI or SciPy.
+(DESIGN §5) reads it. This module therefore imports NumPy, h5py and the standard library
+only, so the file can be read without dolfinx, PETSc, MPI or SciPy.
 
 The writer validates a model before it writes and writes atomically (a temporary file beside
 the target, then a rename), so a failed or interrupted write leaves the previous file as it
@@ -22,14 +22,14 @@ strings); datasets ``/mass``, ``/stiffness``, ``/gravity``, ``/fields``, ``/node
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NoReturn
 
 import h5py
 import numpy as np
+
+from gcms_fenicsx.outputs import atomic_file
 
 SCHEMA_VERSION: int = 1
 
@@ -239,25 +239,17 @@ def write_reduced(path: str | Path, model: ReducedModel) -> None:
     path = Path(path)
     validate_model(model)
     attributes = _json_attributes(model)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        os.fchmod(fd, 0o644)
-        os.close(fd)
-        with h5py.File(tmp, "w") as f:
-            f.attrs["schema_version"] = SCHEMA_VERSION
-            f.attrs["input_hash"] = model.input_hash
-            for name, text in attributes.items():
-                f.attrs[name] = text
-            for name in _ARRAYS:
-                f.create_dataset(name, data=np.asarray(getattr(model, name), dtype=np.float64))
-            groups = f.create_group("groups")
-            for name, g in model.groups.items():
-                groups.create_dataset(f"{name}/nodes", data=g.nodes.astype(np.int64))
-                groups.create_dataset(f"{name}/weights", data=g.weights.astype(np.float64))
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_file(path) as tmp, h5py.File(tmp, "w") as f:
+        f.attrs["schema_version"] = SCHEMA_VERSION
+        f.attrs["input_hash"] = model.input_hash
+        for name, text in attributes.items():
+            f.attrs[name] = text
+        for name in _ARRAYS:
+            f.create_dataset(name, data=np.asarray(getattr(model, name), dtype=np.float64))
+        groups = f.create_group("groups")
+        for name, g in model.groups.items():
+            groups.create_dataset(f"{name}/nodes", data=g.nodes.astype(np.int64))
+            groups.create_dataset(f"{name}/weights", data=g.weights.astype(np.float64))
 
 
 def read_reduced(path: str | Path) -> ReducedModel:

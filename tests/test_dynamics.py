@@ -20,6 +20,7 @@ from gcms_fenicsx.dynamics.joints import build_constraints
 from gcms_fenicsx.dynamics.rotation import rotation_about, skew
 from gcms_fenicsx.dynamics.scene import parse_scene
 from gcms_fenicsx.dynamics.simulate import elastic_modes, simulate_body
+from gcms_fenicsx.dynamics.spectra import peak_frequency_hz
 from gcms_fenicsx.reduced_model import read_reduced
 from test_cli import gcms
 
@@ -227,17 +228,6 @@ def test_free_spinning_body_conserves_momentum_and_is_second_order(beam):
 
 # -- 3. free vibration at the eigenfrequency ---------------------------------------------
 
-def spectral_peak_hz(x: np.ndarray, dt: float, pad: int = 8) -> float:
-    """Frequency of the largest peak of x: Hann window, zero padding ×pad, and a parabola
-    through the log-magnitudes of the three bins at the peak."""
-    x = x - x.mean()
-    n = pad * len(x)
-    X = np.abs(np.fft.rfft(x * np.hanning(len(x)), n))
-    k = int(np.argmax(X[1:])) + 1
-    a, b, c = np.log(X[k - 1:k + 2])
-    return (k + 0.5 * (a - c) / (a - 2 * b + c)) / (n * dt)
-
-
 def modal_history(body: Body, q: np.ndarray, mode: int) -> np.ndarray:
     """ψ_modeᵀ Mr (vec(Q_loc) − q0) along a recorded trajectory: the co-rotated modal
     coordinate (ψ Mr-orthonormal, so rigid motion and the other modes drop out)."""
@@ -272,7 +262,7 @@ def test_free_vibration_oscillates_at_the_eigenfrequency(beam, mode, spin_hz):
                  "amplitude": 1e-3},
         outputs={"coordinates": True}))
     assert summary["complete"], summary["message"]
-    peak = spectral_peak_hz(modal_history(body, traj.coordinates["q"], mode), h)
+    peak = peak_frequency_hz(modal_history(body, traj.coordinates["q"], mode), h)
     assert abs(peak / f_reduced - 1) < 5e-3
     discrete = math.atan(math.pi * f_reduced * h) / (math.pi * h)
     assert abs(peak / discrete - 1) < 1e-4, (peak, discrete, f_reduced)

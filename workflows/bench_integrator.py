@@ -1,8 +1,10 @@
 """Integrator speed: steps per second of the reduced GCMS pendulum for Nm = 5, 10, 20, 50.
 
 The case is the flexible pendulum of ``gcms_fenicsx.pendulum`` (revolute joint, gravity,
-h = 1 ms). For each Nm, with the default selection and without any (all 4 + 3 Nm fields,
-plain basis: the reference's rank-deficient Φ), it times the run with
+h = 1 ms, 1 s), in its soft polymer (E = 0.1 GPa: the validation case, strains ~1e-3) and in
+a stiff one (E = 3 GPa: strains 30× smaller, so Newton converges faster). For each Nm, with
+the default selection and (soft) without any (all 4 + 3 Nm fields, plain basis: the
+reference's rank-deficient Φ), it times the run with
 
 - the default Newton ("rotated": β'Mr + γ'D + Kr factorised once, turned with the frame;
   change-of-frame terms added by Woodbury where a step converges slowly), and
@@ -34,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 MODE_COUNTS = (5, 10, 20, 50)
+MATERIALS_E_PA = {"soft": 1.0e8, "stiff": 3.0e9}
 BASELINE_TIME_S = 0.1   # the assembled baseline is slow: its rate is measured on 100 steps
 
 
@@ -42,7 +45,8 @@ def log(message: str) -> None:
 
 
 def bodies():
-    """(Nm, selection, body or failure message) for every case, from one mesh and solve."""
+    """(material, Nm, selection, body or failure message) for every case, one mesh and one
+    solve per material."""
     from geometry import build_msh
 
     from gcms_fenicsx import eigen, fe, pendulum
@@ -55,18 +59,20 @@ def bodies():
     with tempfile.TemporaryDirectory() as tmp:
         info = build_msh(cfg.geometry, cfg.mesh, Path(tmp) / "pendulum.msh")
         body_mesh = read_mesh(Path(tmp) / "pendulum.msh", info.groups)
-    model = fe.assemble(body_mesh.mesh, cfg.material)
-    modes = eigen.solve_free_free(model, cfg.modes)
     none = {"cosine_tolerance": 0.0, "svd_tolerance": 0.0, "orthonormalize": False}
-    for nm in MODE_COUNTS:
-        for label, table in (("default", {}), ("none", none)):
-            cfg_c = parse_config(dict(pendulum.STUDY, modes={"count": nm}, selection=table))
-            try:
-                reduced, report = reduce_body(model, modes.lowest(nm), body_mesh, cfg_c, {})
-            except ReductionError as exc:
-                yield nm, label, None, str(exc)
-                continue
-            yield nm, label, body_from_reduced(reduced), report
+    for material, E in MATERIALS_E_PA.items():
+        table_m = dict(pendulum.STUDY, material=dict(pendulum.STUDY["material"], E=E))
+        model = fe.assemble(body_mesh.mesh, parse_config(table_m).material)
+        modes = eigen.solve_free_free(model, cfg.modes)
+        for nm in MODE_COUNTS:
+            for label, table in (("default", {}), ("none", none))[:2 if material == "soft" else 1]:
+                cfg_c = parse_config(dict(table_m, modes={"count": nm}, selection=table))
+                try:
+                    reduced, report = reduce_body(model, modes.lowest(nm), body_mesh, cfg_c, {})
+                except ReductionError as exc:
+                    yield material, nm, label, None, str(exc)
+                    continue
+                yield material, nm, label, body_from_reduced(reduced), report
 
 
 def timed(body, scene, jacobian: str, repeat: int) -> dict:
@@ -103,8 +109,8 @@ def main() -> None:
 
     scene = parse_scene(pendulum.STUDY["scene"])
     rows = []
-    for nm, label, body, report in bodies():
-        row = {"modes": nm, "selection": label}
+    for material, nm, label, body, report in bodies():
+        row = {"material": material, "modes": nm, "selection": label}
         if body is None:
             row["failed"] = report
         else:
@@ -113,7 +119,8 @@ def main() -> None:
             row["rotated"] = timed(body, scene, "rotated", args.repeat)
             row["assembled"] = timed(body, scene, "assembled", args.repeat)
         rows.append(row)
-        log(f"Nm = {nm}, selection {label}: {json.dumps({k: v for k, v in row.items() if k in ('reduced_dofs', 'failed')})}")
+        log(f"{material}, Nm = {nm}, selection {label}: "
+            f"{json.dumps({k: v for k, v in row.items() if k in ('reduced_dofs', 'failed')})}")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     Path(f"{args.out}.json").write_text(json.dumps(rows, indent=1))
     plot(rows, Path(f"{args.out}.png"))
@@ -128,12 +135,13 @@ def _cell(run: dict) -> tuple[str, str, str]:
 
 
 def table(rows: list[dict]) -> str:
-    lines = ["| Nm | selection | reduced DOFs | cond(Mr) | steps/s | µs/step | Newton it. "
-             "| baseline steps/s | baseline it. | speedup |", "|---|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| pendulum | Nm | selection | reduced DOFs | cond(Mr) | steps/s | µs/step "
+             "| Newton it. | baseline steps/s | baseline it. | speedup |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         if "failed" in r:
-            lines.append(f"| {r['modes']} | {r['selection']} | — | — | reduction failed: "
-                         f"{r['failed'][:70]} | | | | | |")
+            lines.append(f"| {r['material']} | {r['modes']} | {r['selection']} | — | — | "
+                         f"reduction failed: {r['failed'][:70]} | | | | | |")
             continue
         fast, base = r["rotated"], r["assembled"]
         sps, us, it = _cell(fast)
@@ -141,7 +149,7 @@ def table(rows: list[dict]) -> str:
         ratio = (f"{fast['steps_per_second'] / base['steps_per_second']:.1f}×"
                  if "failed" not in fast and "failed" not in base else "")
         note = f" ({fast['failed'][:60]})" if "failed" in fast else ""
-        lines.append(f"| {r['modes']} | {r['selection']} | {r['reduced_dofs']} "
+        lines.append(f"| {r['material']} | {r['modes']} | {r['selection']} | {r['reduced_dofs']} "
                      f"| {r['cond_mr']:.1e} | {sps}{note} | {us} | {it} | {bsps} | {bit} | {ratio} |")
     return "\n".join(lines)
 
@@ -153,14 +161,14 @@ def plot(rows: list[dict], path: Path) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7.5, 4.8))
-    for label, marker in (("default", "o"), ("none", "s")):
+    for material, marker in (("soft", "o"), ("stiff", "s")):
         for method, style in (("rotated", "-"), ("assembled", "--")):
             pts = [(r["reduced_dofs"], r[method]["steps_per_second"]) for r in rows
-                   if r["selection"] == label and "failed" not in r
+                   if r["material"] == material and r["selection"] == "default"
                    and "failed" not in r[method]]
             if pts:
                 x, y = zip(*pts)
-                ax.loglog(x, y, marker + style, label=f"selection {label}, {method}")
+                ax.loglog(x, y, marker + style, label=f"{material}, {method}")
     ax.axhline(4000, color="k", lw=0.7, ls=":", label="target 4000 steps/s")
     ax.set_xlabel("reduced DOFs")
     ax.set_ylabel("steps per second")

@@ -42,6 +42,7 @@ from gcms_fenicsx.dynamics.body import Body, body_from_reduced  # noqa: E402
 from gcms_fenicsx.dynamics.corotated import elastic_state  # noqa: E402
 from gcms_fenicsx.dynamics.scene import parse_scene  # noqa: E402
 from gcms_fenicsx.dynamics.simulate import elastic_modes, simulate_body  # noqa: E402
+from gcms_fenicsx.dynamics.spectra import peak_frequency_hz  # noqa: E402
 from gcms_fenicsx.reduced_model import ReducedModel, read_reduced  # noqa: E402
 
 STUDY = """
@@ -114,15 +115,6 @@ def spinning(body: Body) -> list[dict]:
     return rows
 
 
-def spectral_peak_hz(x: np.ndarray, dt: float, pad: int = 8) -> float:
-    x = x - x.mean()
-    n = pad * len(x)
-    X = np.abs(np.fft.rfft(x * np.hanning(len(x)), n))
-    k = int(np.argmax(X[1:])) + 1
-    a, b, c = np.log(X[k - 1:k + 2])
-    return (k + 0.5 * (a - c) / (a - 2 * b + c)) / (n * dt)
-
-
 def vibration(model: ReducedModel, body: Body) -> list[dict]:
     _, psi = elastic_modes(body)
     axis = np.array([0.3, 0.5, 1.0]) / np.linalg.norm([0.3, 0.5, 1.0])
@@ -141,7 +133,7 @@ def vibration(model: ReducedModel, body: Body) -> list[dict]:
         w = body.mass @ psi[:, 5 + mode]
         eta = np.array([w @ (elastic_state(body, q).local.ravel() - body.q0)
                         for q in traj.coordinates["q"]])
-        peak = spectral_peak_hz(eta, h)
+        peak = peak_frequency_hz(eta, h)
         discrete = math.atan(math.pi * f * h) / (math.pi * h)
         rows.append({
             "mode": mode, "spin_hz": spin_hz,

@@ -78,12 +78,9 @@ def translation_free_force(body: Body, P: np.ndarray) -> np.ndarray:
 
 
 def frame_update(body: Body, q: np.ndarray, s: ElasticState,
-                 apply_A: Callable[[np.ndarray], np.ndarray],
-                 geometric: bool = True) -> tuple[np.ndarray, np.ndarray]:
+                 apply_A: Callable[[np.ndarray], np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """(X, Y) with J_eᵀ A J_e + G = T A Tᵀ + X Y, rank 9, for a symmetric operator A that
-    annihilates translations (A = Kr gives the exact tangent ∂²V/∂q²); without the
-    ``geometric`` part G, J_eᵀ A J_e = T A Tᵀ + X Y of rank 6 (the velocity Jacobian of
-    co-rotated damping, A = γ' D₀, whatever the elastic law).
+    annihilates translations (A = Kr gives the exact tangent ∂²V/∂q²).
 
     J_e = ∂e/∂q = Π Tᵀ + Ĉ W_ω (T = I ⊗ R): a coordinate change dq turns the frame by
     ω = W_ω dq = S⁻¹ w(Rᵀ dQᵀ H), which moves e by Ĉ ω, Ĉ = Π [vec(Q_loc [e_k]×)]_k. With
@@ -111,8 +108,6 @@ def frame_update(body: Body, q: np.ndarray, s: ElasticState,
     B = translation_free_force(body, AC.T.reshape(3, nf, 3))       # Πᵀ A Ĉ  (3, nf, 3)
     TB = (B @ R.T).reshape(3, -1).T                                 # (n, 3)
     CAC = C_hat.T @ AC
-    if not geometric:
-        return np.hstack([TB, W_omega.T]), np.vstack([W_omega, TB.T + CAC @ W_omega])
     Y_lp = local.T @ P
     M_Y = np.stack([axial(skew(E[k]) @ Y_lp) for k in range(3)], axis=1)   # w([ω]× Y) = M_Y ω
     hr = H @ R.T                                                    # h_f · r_l  (nf, 3)

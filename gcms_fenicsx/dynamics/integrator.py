@@ -31,8 +31,10 @@ solve with S₀ and small dense algebra. ``[scene.solver] jacobian``:
 
 - "rotated" (default): T S₀ Tᵀ alone — linear convergence at a rate set by the neglected
   change-of-frame terms (strain-sized, but multiplied by 1 + γ'β under stiffness-
-  proportional damping); a step whose iteration contracts slower than
-  ``UPGRADE_RATE`` per iteration continues with the rank-9 term.
+  proportional damping). Once a step has needed them (below), every later step starts
+  with the rank-9 term as well, kept in the body frame (X = T X_loc, Y = Y_loc Tᵀ, which
+  depend only on the slowly changing local state) and re-linearised every
+  ``LOCAL_REUSE_STEPS`` steps: near-Newton convergence at the cost of a rotation.
 In every mode, a correction that is not smaller than ``UPGRADE_RATE`` times the previous
 one is discarded and recomputed with the iteration matrix re-linearised at the current
 iterate (R, and the rank-9 term where the elastic model allows), and the rest of that step
@@ -50,10 +52,9 @@ The solve with S₀ goes through a ``factorize`` callable, so the same integrato
 dense reduced body (NumPy, default) and the full finite-element model (a sparse LU); the
 internal force goes through an ``elastic`` callable (default: co-rotated linear
 elasticity), so a full-order geometrically nonlinear model can be stepped by the same
-scheme. The damping and the iteration matrix are those of the co-rotated linear model at
-the same q; for another elastic law only T S₀ Tᵀ and the damping's rank-6 change-of-frame
-term are used (the co-rotated geometric term belongs to the co-rotated forces), so its
-Newton converges linearly at a rate set by how far its tangent is from the linear one.
+scheme. Its iteration matrix is T S₀ Tᵀ alone (the rank-9 term belongs to the co-rotated
+forces), so its Newton converges linearly at a rate set by how far its tangent is from
+the linear one; co-rotated damping is not combined with another elastic law.
 """
 from __future__ import annotations
 
@@ -79,6 +80,9 @@ Factorize = Callable[[Any], Solve]
 #: it pays only where the plain iteration is slow or diverges (under strong stiffness-
 #: proportional damping the rate exceeds 1).
 UPGRADE_RATE = 0.6
+#: The rank-9 term, kept in the body frame, is re-linearised after this many steps: the
+#: local state it depends on changes slowly compared with the step.
+LOCAL_REUSE_STEPS = 10
 #: q ↦ an object with ``force`` (∂V/∂q), ``energy`` (V) and ``rotation`` (R of the frame).
 Elastic = Callable[[np.ndarray], Any]
 
@@ -163,9 +167,9 @@ class GeneralizedAlpha:
         self.body, self.constraints, self.forces = body, constraints, forces
         self.elastic = elastic or (lambda q: elastic_state(body, q))
         self.corotated = elastic is None
-        if not self.corotated and solver.jacobian != "rotated":
-            raise ValueError(f'jacobian = "{solver.jacobian}" needs the co-rotated elastic '
-                             'model (its exact tangent); use "rotated"')
+        if not self.corotated and (solver.jacobian != "rotated" or damping != (0.0, 0.0)):
+            raise ValueError("another elastic model than the co-rotated one runs with "
+                             'jacobian = "rotated" and without damping')
         if solver.jacobian == "assembled" and not isinstance(body.mass, np.ndarray):
             raise ValueError('jacobian = "assembled" needs a dense body')
         self.h = time_step_s
@@ -182,20 +186,19 @@ class GeneralizedAlpha:
         self.factorize = factorize
         self._mass_solve: Solve | None = None
         self.tolerance_m = solver.tolerance * body.size_m
-        self.kkt = _BorderedKKT(body, constraints, factorize(self.S0), self.apply_A,
-                                geometric=self.corotated)
-        # frame terms: of the whole iteration matrix (co-rotated), else of the damping only
-        self.can_upgrade = self.corotated or self.damped
+        self.kkt = _BorderedKKT(body, constraints, factorize(self.S0), self.apply_A)
+        self.frame_terms = False   # "rotated": start steps with the kept rank-9 term
+        self.kept_steps = 0        # steps since the kept rank-9 term was re-linearised
 
     def linear_state(self, q: np.ndarray, es: Any) -> ElasticState:
         """The co-rotated linear state at q (``es`` itself unless another elastic model runs)."""
         return es if self.corotated else elastic_state(self.body, q)
 
     def apply_A(self, X: np.ndarray) -> np.ndarray:
-        """A X, the operator of the frame terms: A = γ' D₀ + Kr = γ'α Mr + (1 + γ'β) Kr for the
-        co-rotated model, A = γ' D₀ (its damping only) for another elastic law."""
+        """A X with A = γ' D₀ + Kr = γ'α Mr + (1 + γ'β) Kr, the operator J_e is applied to in
+        the rank-9 term."""
         alpha, beta = self.damping
-        out = (int(self.corotated) + self.gamma_p * beta) * (self.body.stiffness @ X)
+        out = (1.0 + self.gamma_p * beta) * (self.body.stiffness @ X)
         return out + (self.gamma_p * alpha) * (self.body.mass @ X) if alpha else out
 
     # -- forces ---------------------------------------------------------------------------
@@ -304,24 +307,31 @@ class GeneralizedAlpha:
         tol = self.tolerance_m
         previous, full_newton = np.inf, False
         jacobian = self.solver.jacobian
-        exact = jacobian != "rotated"
+        exact = jacobian != "rotated" or self.frame_terms
+        relinearise = jacobian == "exact" or self.kept_steps >= LOCAL_REUSE_STEPS
+        self.kept_steps = 0 if relinearise else self.kept_steps + 1
         for iteration in range(1, self.solver.max_iterations + 1):
             r, es, fd, dissipation = self.residual(t1, q, v, acc, lam, U)
             g = c.residual(q, U)
             if jacobian == "assembled":
                 dq, dlam = self._assembled_correction(q, self.linear_state(q, es), r, g, U)
+                delta = self._norm(dq)
             else:
                 if iteration == 1 or full_newton:
-                    self.kkt.prepare(q, self.linear_state(q, es), U, exact)
+                    self.kkt.prepare(q, self.linear_state(q, es), U, exact,
+                                     relinearise=relinearise or full_newton)
                 dq, dlam = self.kkt.solve(r, g)
-                if not full_newton and self._norm(dq) > UPGRADE_RATE * previous:
+                delta = self._norm(dq)
+                if not full_newton and delta > UPGRADE_RATE * previous:
                     # slow or diverging with the step's first linearisation: full Newton,
-                    # re-linearised at every iterate for the rest of the step
-                    exact = exact or self.can_upgrade
-                    full_newton = True
+                    # re-linearised at every iterate for the rest of the step, and (rotated)
+                    # the change-of-frame term kept for the steps that follow
+                    exact = exact or self.corotated
+                    self.frame_terms = self.frame_terms or self.corotated
+                    full_newton, self.kept_steps = True, 0
                     self.kkt.prepare(q, self.linear_state(q, es), U, exact)
                     dq, dlam = self.kkt.solve(r, g)
-            delta = self._norm(dq)
+                    delta = self._norm(dq)
             if not delta < np.inf:
                 raise IntegrationError(f"the state is no longer finite at t = {t1:.6g} s "
                                        f"(Newton iteration {iteration})", t1)
@@ -380,9 +390,9 @@ class _BorderedKKT:
     """
 
     def __init__(self, body: Body, constraints: Constraints, solve: Solve,
-                 apply_A: Callable[[np.ndarray], np.ndarray], geometric: bool) -> None:
+                 apply_A: Callable[[np.ndarray], np.ndarray]) -> None:
         self.body, self.c, self.solve0, self.apply_A = body, constraints, solve, apply_A
-        self.geometric = geometric
+        self.local: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.nf = body.field_count
         m = constraints.count
         if m:
@@ -398,23 +408,38 @@ class _BorderedKKT:
             self.blocks = np.zeros((3 * m, m))                         # block-diagonal Rᵀu_i
             self.block_index = (np.arange(3 * m), np.repeat(np.arange(m), 3))
 
-    def prepare(self, q: np.ndarray, es: ElasticState, U: np.ndarray, exact: bool) -> None:
-        """Fix R, the constraint directions U and (``exact``) the rank-9 term for the step."""
+    def prepare(self, q: np.ndarray, es: ElasticState, U: np.ndarray, exact: bool,
+                relinearise: bool = True) -> None:
+        """Fix R, the constraint directions U and (``exact``) the rank-9 term for the step.
+
+        The rank-9 term is kept in the body frame, X = T X_loc, Y = Y_loc Tᵀ: X_loc and Y_loc
+        depend only on the local state (Q_loc, P, U, b), so S₀⁻¹ X_loc and the capacitance
+        I + Y S_T⁻¹ X = I + Y_loc S₀⁻¹ X_loc can serve later steps, only turned with the new
+        R. ``relinearise`` (or nothing kept yet) recomputes them at ``es``.
+        """
         R, m = es.rotation, self.c.count
         self.R, self.U = R, U
-        borders, rows = [], []
+        borders = []
         if m:
             B = self.blocks
             B[self.block_index] = (U @ R).ravel()                     # Rᵀ u_i
             borders.append(_rotate(R, self.Y @ B))                    # S_T⁻¹ Cᵀ
             matrix = B.T @ (self.gamma @ B)
         if exact:
-            X, self.Yrows = frame_update(self.body, q, es, self.apply_A, self.geometric)
-            SX = _rotate(R, np.asarray(self.solve0(_rotate(R.T, X))))
-            inner = np.eye(X.shape[1]) + self.Yrows @ SX
+            if relinearise or self.local is None:
+                X, Y = frame_update(self.body, q, es, self.apply_A)
+                X_loc, Y_loc = _rotate(R.T, X), _rotate(R.T, Y.T).T
+                SX_loc = np.asarray(self.solve0(X_loc))
+                self.local = (Y_loc, SX_loc, np.eye(X.shape[1]) + Y_loc @ SX_loc)
+            Y_loc, SX_loc, inner = self.local
+            self.Yrows = _rotate(R, Y_loc.T).T                          # Y = Y_loc Tᵀ
+            SX = _rotate(R, SX_loc)                                     # S_T⁻¹ X
             if m:
-                CSX = self.c.values(SX, U)
-                matrix = np.block([[matrix, CSX], [self.Yrows @ borders[0], inner]])
+                schur, matrix = matrix, np.empty((m + len(inner), m + len(inner)))
+                matrix[:m, :m] = schur
+                matrix[:m, m:] = self.c.values(SX, U)               # C S_T⁻¹ X
+                matrix[m:, :m] = self.Yrows @ borders[0]            # Y S_T⁻¹ Cᵀ
+                matrix[m:, m:] = inner
             else:
                 matrix = inner
             borders.append(SX)

@@ -15,14 +15,14 @@ when requested. Every time series has one row per recorded step.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import NoReturn
 
 import h5py
 import numpy as np
+
+from gcms_fenicsx.outputs import atomic_file
 
 RESULTS_SCHEMA_VERSION: int = 1
 ENERGY_NAMES = ("kinetic", "elastic", "gravity", "load_work", "constraint_work",
@@ -76,38 +76,30 @@ def energy_drift(energy: dict[str, np.ndarray]) -> float | None:
 def write_results(path: str | Path, traj: Trajectory) -> None:
     """Write ``traj`` to ``path`` atomically; a failure leaves a previous file untouched."""
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        os.fchmod(fd, 0o644)
-        os.close(fd)
-        with h5py.File(tmp, "w") as f:
-            f.attrs["schema_version"] = RESULTS_SCHEMA_VERSION
-            f.attrs["complete"] = bool(traj.complete)
-            f.attrs["message"] = traj.message
-            f.attrs["model_hash"] = traj.model_hash
-            f.attrs["scene"] = json.dumps(traj.scene)
-            f.attrs["rows"] = json.dumps(traj.rows)
-            f.create_dataset("time", data=traj.time)
-            f.create_dataset("newton_iterations", data=traj.newton_iterations)
-            for name, data in traj.energy.items():
-                f.create_dataset(f"energy/{name}", data=data)
-            for name, data in traj.momentum.items():
-                f.create_dataset(f"momentum/{name}", data=data)
-            for group, series in traj.groups.items():
-                for name, data in series.items():
-                    f.create_dataset(f"groups/{group}/{name}", data=data)
-            f.create_dataset("constraints/multipliers", data=traj.multipliers)
-            for name, data in traj.coordinates.items():
-                f.create_dataset(f"coordinates/{name}", data=data)
-            if len(traj.field_time):
-                f.create_dataset("fields/time", data=traj.field_time)
-                f.create_dataset("fields/displacement", data=traj.displacement,
-                                 compression="gzip", compression_opts=4)
-                f.create_dataset("fields/nodes_m", data=traj.nodes_m)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_file(path) as tmp, h5py.File(tmp, "w") as f:
+        f.attrs["schema_version"] = RESULTS_SCHEMA_VERSION
+        f.attrs["complete"] = bool(traj.complete)
+        f.attrs["message"] = traj.message
+        f.attrs["model_hash"] = traj.model_hash
+        f.attrs["scene"] = json.dumps(traj.scene)
+        f.attrs["rows"] = json.dumps(traj.rows)
+        f.create_dataset("time", data=traj.time)
+        f.create_dataset("newton_iterations", data=traj.newton_iterations)
+        for name, data in traj.energy.items():
+            f.create_dataset(f"energy/{name}", data=data)
+        for name, data in traj.momentum.items():
+            f.create_dataset(f"momentum/{name}", data=data)
+        for group, series in traj.groups.items():
+            for name, data in series.items():
+                f.create_dataset(f"groups/{group}/{name}", data=data)
+        f.create_dataset("constraints/multipliers", data=traj.multipliers)
+        for name, data in traj.coordinates.items():
+            f.create_dataset(f"coordinates/{name}", data=data)
+        if len(traj.field_time):
+            f.create_dataset("fields/time", data=traj.field_time)
+            f.create_dataset("fields/displacement", data=traj.displacement,
+                             compression="gzip", compression_opts=4)
+            f.create_dataset("fields/nodes_m", data=traj.nodes_m)
 
 
 def read_results(path: str | Path) -> Trajectory:
