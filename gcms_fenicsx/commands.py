@@ -24,7 +24,7 @@ from gcms_fenicsx.pipeline import MeshStage, mesh_report, mesh_stage
 from gcms_fenicsx.progress import Progress, progress_printer
 from gcms_fenicsx.reduce import reduce_body
 from gcms_fenicsx.reduced_model import ReducedModel, write_reduced
-from gcms_fenicsx.simulation import SimulationIncomplete, run_scene, simulation_summary
+from gcms_fenicsx.simulation import finished, run_scene
 
 
 def _write_mesh_json(cfg: StudyConfig, folder: Path, stage: MeshStage, Ms: PETSc.Mat,
@@ -158,7 +158,4 @@ def run(config: Path | None, out: Path) -> str:
             summary = on_rank0(comm, run_scene, cfg, model, folder, progress)
     if summary is None:
         return text + "\nno [scene] table: the simulation stage was skipped"
-    text = "\n".join([text, simulation_summary(summary)])
-    if not summary["complete"]:
-        raise SimulationIncomplete(text)
-    return text
+    return finished([text], summary)

@@ -67,7 +67,7 @@ def rigid_pendulum(body: Body, gravity: np.ndarray, end_time_s: float,
     """The rigid pendulum of ``body`` (mass, centre of mass, second moments from its rigid
     fields) pinned at the centroid of group PIN about AXIS, released at rest."""
     m = body.total_mass_kg
-    second = body.centred.T @ np.asarray(body.gram @ body.centred)   # J = ∫ρ X̃ X̃ᵀ
+    second = body.second_moment
     inertia = np.trace(second) * np.eye(3) - second
     pivot, tip0 = body.groups[PIN].center_m, body.groups[TIP].center_m
     arm = body.center_of_mass(body.q0) - pivot

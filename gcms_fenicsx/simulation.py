@@ -85,10 +85,16 @@ def simulate_command(config: Path | None, out: Path) -> str:
             text, model = reduced_model_files(cfg, folder, progress, comm, mode_shapes=False)
             texts.append(text)
         summary = on_rank0(comm, run_scene, cfg, model, folder, progress)
-    texts.append(simulation_summary(summary))
+    return finished(texts, summary)
+
+
+def finished(texts: list[str], summary: dict) -> str:
+    """The command's text with the simulation's summary; SimulationIncomplete carrying it when
+    the run stopped early (its files are written by then)."""
+    text = "\n".join([*texts, simulation_summary(summary)])
     if not summary["complete"]:
-        raise SimulationIncomplete("\n".join(texts))
-    return "\n".join(texts)
+        raise SimulationIncomplete(text)
+    return text
 
 
 def _number(value: float | None, spec: str) -> str:

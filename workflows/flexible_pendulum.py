@@ -184,8 +184,8 @@ def stiffness_sweep(cfg, body_mesh, groups_of, scene, quick: bool) -> list[dict]
                          elastic=svk_elastic(model, full))}
         dev = {k: pendulum.tip_deviation(rigid, r["time"], r["tip"]) for k, r in refs.items()}
         k = refs["a"]["time"] <= until + 1e-12
-        second = full.centred.T @ (full.gram @ full.centred) / full.total_mass_kg
-        r2 = float(np.sort(np.linalg.eigvalsh(second))[1])     # section's r² (bending plane)
+        r2 = float(np.sort(np.linalg.eigvalsh(full.second_moment))[1]) / full.total_mass_kg
+        # the section's r² in the bending plane
         lam = cfg.material.rho * 9.81 * pendulum.LENGTH_M ** 3 / (E * r2)
         row = {"E_pa": E, "lambda": lam, "tension_parameter": 2.5 * lam,
                "max_deviation_over_length": float(np.linalg.norm(dev["a"][k], axis=1).max()

@@ -84,6 +84,7 @@ class Body:
     gravity: np.ndarray
     groups: dict[str, GroupRows]
     total_mass_kg: float
+    second_moment: np.ndarray  # J = Eᵀ G E = ∫ρ X̃ X̃ᵀ (kg·m²), about the centre of mass
     size_m: float         # radius of gyration √(tr J / m): the length scale of tolerances
     node_fields: Any      # F (N × nf), dense or sparse (the identity for the full model)
     nodes_m: np.ndarray   # undeformed node coordinates (N × 3)
@@ -142,15 +143,17 @@ def make_body(mass: Any, stiffness: Any, gram: Any, q0: np.ndarray, unit: np.nda
     return Body(mass=mass, stiffness=stiffness, gram=gram, q0=q0, unit=unit, field_mass=g1,
                 centred=centred,
                 affine=B @ np.linalg.inv(J), gravity=gravity, groups=groups,
-                total_mass_kg=total, size_m=float(np.sqrt(np.trace(J) / total)),
+                total_mass_kg=total, second_moment=J,
+                size_m=float(np.sqrt(np.trace(J) / total)),
                 node_fields=node_fields, nodes_m=nodes_m)
 
 
 def body_from_reduced(model: ReducedModel) -> Body:
     """The body of an exported reduced model (``reduced.h5``).
 
-    The first four fields span {1, X, Y, Z} (scaled and shifted or not), so k1 and E are
-    exact least-squares solutions on them and zero on the flexible fields.
+    The first four fields span {1, X, Y, Z} (scaled and shifted or not), so k1 is the exact
+    least-squares solution on them and zero on the flexible fields, and so is Q0
+    (``undeformed_coordinates``): F Q0 = X, hence E = Q0 − k1 cᵀ gives F E = X − c.
     """
     F, nodes = model.fields, model.nodes_m
     nf = F.shape[1]
@@ -161,9 +164,7 @@ def body_from_reduced(model: ReducedModel) -> Body:
     k1[:4] = unit
     q0 = model.undeformed_coordinates()
     center = q0.reshape(-1, 3).T @ (G @ k1) / (k1 @ G @ k1)
-    coeff, *_ = np.linalg.lstsq(rigid, nodes - center, rcond=None)
-    E = np.zeros((nf, 3))
-    E[:4] = coeff
+    E = q0.reshape(-1, 3) - np.outer(k1, center)
     groups = {name: group_rows(F[g.nodes], g.weights, nodes[g.nodes])
               for name, g in model.groups.items()}
     return make_body(mass=model.mass, stiffness=model.stiffness, gram=G, q0=q0, unit=k1,

@@ -151,7 +151,6 @@ class StepInfo:
     """What a converged step leaves for the recorder."""
 
     elastic: ElasticState
-    damping_force: np.ndarray
     dissipation_w: float
     directions: np.ndarray   # constraint directions u(t)
     iterations: int
@@ -215,19 +214,18 @@ class GeneralizedAlpha:
         _, force = frame_force(body, es.rotation, es.rate_inv, es.local, P)
         return force, float(rate @ p)
 
-    def residual(self, t: float, q: np.ndarray, v: np.ndarray, acc: np.ndarray,
-                 lam: np.ndarray, U: np.ndarray) -> tuple[np.ndarray, ElasticState,
-                                                          np.ndarray | None, float]:
-        """r = Mr q̈ + f_d + ∂V/∂q − f_ext + Cᵀλ, with the elastic and damping terms."""
+    def residual(self, f_ext: np.ndarray, q: np.ndarray, v: np.ndarray, acc: np.ndarray,
+                 lam: np.ndarray, U: np.ndarray) -> tuple[np.ndarray, ElasticState, float]:
+        """r = Mr q̈ + f_d + ∂V/∂q − f_ext + Cᵀλ, the elastic state and the damping's power."""
         es = self.elastic(q)
-        r = self.body.mass @ acc + es.force - self.forces(t)
-        fd, dissipation = None, 0.0
+        r = self.body.mass @ acc + es.force - f_ext
+        dissipation = 0.0
         if self.damped:
             fd, dissipation = self.damping_force(q, v, self.linear_state(q, es))
             r += fd
         if self.constraints.count:
             r += self.constraints.transpose_times(lam, U)
-        return r, es, fd, dissipation
+        return r, es, dissipation
 
     # -- start ----------------------------------------------------------------------------
     def mass_solve(self) -> Solve:
@@ -272,9 +270,11 @@ class GeneralizedAlpha:
         c = self.constraints
         U = c.directions_at(t)
         es = self.elastic(q)
-        fd, dissipation = (self.damping_force(q, v, self.linear_state(q, es)) if self.damped
-                           else (None, 0.0))
-        f = self.forces(t) - es.force - (0.0 if fd is None else fd)
+        f = self.forces(t) - es.force
+        dissipation = 0.0
+        if self.damped:
+            fd, dissipation = self.damping_force(q, v, self.linear_state(q, es))
+            f = f - fd
         solve = self.mass_solve()
         lam = np.zeros(c.count)
         if c.count:
@@ -285,7 +285,7 @@ class GeneralizedAlpha:
             f = f - C.T @ lam
         acc = solve(f)
         state = State(t=t, q=q.copy(), v=v.copy(), acc=acc, a=acc.copy(), lam=lam)
-        return state, StepInfo(es, fd, dissipation, U, 0)
+        return state, StepInfo(es, dissipation, U, 0)
 
     # -- one step -------------------------------------------------------------------------
     def step(self, s: State) -> tuple[State, StepInfo]:
@@ -304,6 +304,7 @@ class GeneralizedAlpha:
         lam = s.lam.copy()
         c = self.constraints
         U = c.directions_at(t1)
+        f_ext = self.forces(t1)
         tol = self.tolerance_m
         previous, full_newton = np.inf, False
         jacobian = self.solver.jacobian
@@ -311,7 +312,7 @@ class GeneralizedAlpha:
         relinearise = jacobian == "exact" or self.kept_steps >= LOCAL_REUSE_STEPS
         self.kept_steps = 0 if relinearise else self.kept_steps + 1
         for iteration in range(1, self.solver.max_iterations + 1):
-            r, es, fd, dissipation = self.residual(t1, q, v, acc, lam, U)
+            r, es, dissipation = self.residual(f_ext, q, v, acc, lam, U)
             g = c.residual(q, U)
             if jacobian == "assembled":
                 dq, dlam = self._assembled_correction(q, self.linear_state(q, es), r, g, U)
@@ -350,7 +351,7 @@ class GeneralizedAlpha:
                 "reduce [scene] time_step or raise [scene.solver] max_iterations", t1)
         a1 = a1 + (1.0 - p.alpha_f) / (1.0 - p.alpha_m) * (acc - s.acc)
         return (State(t=t1, q=q, v=v, acc=acc, a=a1, lam=lam),
-                StepInfo(es, fd, dissipation, U, iteration))
+                StepInfo(es, dissipation, U, iteration))
 
     def _norm(self, dq: np.ndarray) -> float:
         """The mass-weighted RMS size of a correction, √(Δqᵀ Mr Δq / m) (metres)."""

@@ -161,11 +161,6 @@ class Scene:
         it (exactly on it when end_time is a multiple of time_step, to 1e-9 of a step)."""
         return max(1, math.ceil(self.end_time_s / self.time_step_s - 1e-9))
 
-    def groups_used(self) -> list[str]:
-        """Every group a joint, load or output refers to, in order of first mention."""
-        names = [j.group for j in self.joints] + [ld.group for ld in self.loads]
-        return list(dict.fromkeys(names + list(self.outputs.groups)))
-
     def check_groups(self, known: Iterable[str]) -> None:
         """SceneError naming the first joint, load or output whose group is not in ``known``."""
         known = set(known)

@@ -60,7 +60,6 @@ def simulate_body(body: Body, scene: Scene, *, factorize: Factorize = dense_fact
 
     ``factorize`` and ``elastic`` as in :class:`~gcms_fenicsx.dynamics.integrator.GeneralizedAlpha`.
     """
-    report = progress
     scene.check_groups(body.groups)
     t_setup = time.perf_counter()
     q = initial_coordinates(body, scene.initial)
@@ -84,7 +83,7 @@ def simulate_body(body: Body, scene: Scene, *, factorize: Factorize = dense_fact
     recorder.step(0, state, info)
     setup_s = time.perf_counter() - t_setup
 
-    report(f"simulate: {steps} steps of {scene.time_step_s:g} s, {body.dofs} coordinates, "
+    progress(f"simulate: {steps} steps of {scene.time_step_s:g} s, {body.dofs} coordinates, "
            f"{constraints.count} constraint rows")
     complete, message, done = True, "", 0
     iterations = 0
@@ -104,7 +103,7 @@ def simulate_body(body: Body, scene: Scene, *, factorize: Factorize = dense_fact
         now = time.perf_counter()
         if now - last_report > PROGRESS_INTERVAL_S:
             last_report = now
-            report(f"simulate: t = {state.t:.4g} / {scene.end_time_s:g} s ({index} steps, "
+            progress(f"simulate: t = {state.t:.4g} / {scene.end_time_s:g} s ({index} steps, "
                    f"{index / (now - start):.0f} steps/s)")
     wall = time.perf_counter() - start
     if not complete and recorder.k and recorder.time[recorder.k - 1] != state.t:
@@ -112,7 +111,7 @@ def simulate_body(body: Body, scene: Scene, *, factorize: Factorize = dense_fact
     rows = [asdict(r) for r in constraints.rows]
     traj = recorder.trajectory(rows)
     traj.complete, traj.message, traj.model_hash = complete, message, model_hash
-    traj.scene = _scene_json(scene)
+    traj.scene = asdict(scene)
     p = traj.momentum["linear"]
     summary = {
         "complete": complete,
@@ -139,10 +138,6 @@ def simulate_body(body: Body, scene: Scene, *, factorize: Factorize = dense_fact
         "model_hash": model_hash,
     }
     return traj, summary
-
-
-def _scene_json(scene: Scene) -> dict:
-    return asdict(scene)
 
 
 def simulate(model: ReducedModel, scene: Scene,
