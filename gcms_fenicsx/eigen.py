@@ -169,11 +169,10 @@ def shifted_matrix(model: FEModel, sigma: float) -> PETSc.Mat:
     return A
 
 
-def inertia_below(model: FEModel, sigma: float) -> int:
-    """Number of eigenvalues of (K, M) below σ: the negative inertia of K − σM (Sylvester's law).
+def factorised(model: FEModel, sigma: float) -> PETSc.KSP:
+    """One sparse LDLᵀ (MUMPS Cholesky, with inertia) of K − σM, as a ``preonly`` KSP.
 
-    One sparse LDLᵀ (MUMPS Cholesky) of K − σM; M is positive definite, so the
-    inertia of K − σM counts the eigenvalues below σ.
+    The factor is ``ksp.getPC().getFactorMatrix()``; the caller destroys the KSP.
     """
     A = shifted_matrix(model, sigma)
     ksp = PETSc.KSP().create(model.comm)
@@ -186,9 +185,19 @@ def inertia_below(model: FEModel, sigma: float) -> int:
     pc.setFactorSolverType("mumps")
     ksp.setFromOptions()
     ksp.setUp()
-    negative, _, _ = pc.getFactorMatrix().getInertia()
+    A.destroy()  # the KSP keeps its own reference
+    return ksp
+
+
+def inertia_below(model: FEModel, sigma: float) -> int:
+    """Number of eigenvalues of (K, M) below σ: the negative inertia of K − σM (Sylvester's law).
+
+    M is positive definite, so the inertia of the factorised K − σM counts the
+    eigenvalues below σ.
+    """
+    ksp = factorised(model, sigma)
+    negative, _, _ = ksp.getPC().getFactorMatrix().getInertia()
     ksp.destroy()
-    A.destroy()
     return int(negative)
 
 

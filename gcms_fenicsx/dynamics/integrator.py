@@ -154,6 +154,7 @@ class StepInfo:
     dissipation_w: float
     directions: np.ndarray   # constraint directions u(t)
     iterations: int
+    external_force: np.ndarray  # f_ext(t)
 
 
 class GeneralizedAlpha:
@@ -270,7 +271,8 @@ class GeneralizedAlpha:
         c = self.constraints
         U = c.directions_at(t)
         es = self.elastic(q)
-        f = self.forces(t) - es.force
+        f_ext = self.forces(t)
+        f = f_ext - es.force
         dissipation = 0.0
         if self.damped:
             fd, dissipation = self.damping_force(q, v, self.linear_state(q, es))
@@ -285,7 +287,7 @@ class GeneralizedAlpha:
             f = f - C.T @ lam
         acc = solve(f)
         state = State(t=t, q=q.copy(), v=v.copy(), acc=acc, a=acc.copy(), lam=lam)
-        return state, StepInfo(es, dissipation, U, 0)
+        return state, StepInfo(es, dissipation, U, 0, f_ext)
 
     # -- one step -------------------------------------------------------------------------
     def step(self, s: State) -> tuple[State, StepInfo]:
@@ -351,7 +353,7 @@ class GeneralizedAlpha:
                 "reduce [scene] time_step or raise [scene.solver] max_iterations", t1)
         a1 = a1 + (1.0 - p.alpha_f) / (1.0 - p.alpha_m) * (acc - s.acc)
         return (State(t=t1, q=q, v=v, acc=acc, a=a1, lam=lam),
-                StepInfo(es, dissipation, U, iteration))
+                StepInfo(es, dissipation, U, iteration, f_ext))
 
     def _norm(self, dq: np.ndarray) -> float:
         """The mass-weighted RMS size of a correction, √(Δqᵀ Mr Δq / m) (metres)."""

@@ -34,10 +34,6 @@ class ExternalForces:
         """V_g = −q · f_g (zero at q = 0)."""
         return -float(q @ self.gravity_force)
 
-    def load_force(self, t: float) -> np.ndarray:
-        """Σ_j s_j(t) b_j: f_ext without gravity, whose power is the work rate of the loads."""
-        return self(t) - self.gravity_force
-
 
 def external_forces(body: Body, gravity: tuple[float, float, float],
                     loads: tuple[Load, ...]) -> ExternalForces:

@@ -50,7 +50,9 @@ class Recorder:
         self._initial_energy = 0.0
 
     def _powers(self, s: State, info: StepInfo) -> np.ndarray:
-        load = float(self.forces.load_force(s.t) @ s.v) if self.forces.loads else 0.0
+        # f_ext without gravity: the loads, whose power is their work rate
+        load = float((info.external_force - self.forces.gravity_force) @ s.v) \
+            if self.forces.loads else 0.0
         constraint = -float(s.lam @ self.c.values(s.v, info.directions)) if self.c.count else 0.0
         return np.array([load, constraint, info.dissipation_w])
 
@@ -63,8 +65,11 @@ class Recorder:
             self._power = power
         if index in self.snapshot_steps:
             self.snapshots.append((s.t, self.body.displacement(s.q)))
-        if index % self.out.every and not last:
-            return
+        if last or index % self.out.every == 0:
+            self.record(s, info)
+
+    def record(self, s: State, info: StepInfo) -> None:
+        """Write a row for a state already accounted for by :meth:`step`."""
         k = self.k
         self.k += 1
         self.time[k] = s.t

@@ -106,8 +106,8 @@ def simulate_body(body: Body, scene: Scene, *, factorize: Factorize = dense_fact
             progress(f"simulate: t = {state.t:.4g} / {scene.end_time_s:g} s ({index} steps, "
                    f"{index / (now - start):.0f} steps/s)")
     wall = time.perf_counter() - start
-    if not complete and recorder.k and recorder.time[recorder.k - 1] != state.t:
-        recorder.step(done, state, info, last=True)   # the last converged state
+    if not complete and recorder.time[recorder.k - 1] != state.t:
+        recorder.record(state, info)   # the last converged state, not yet written
     rows = [asdict(r) for r in constraints.rows]
     traj = recorder.trajectory(rows)
     traj.complete, traj.message, traj.model_hash = complete, message, model_hash
