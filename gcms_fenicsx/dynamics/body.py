@@ -79,7 +79,6 @@ class Body:
     q0: np.ndarray
     unit: np.ndarray        # k1
     field_mass: np.ndarray  # g1 = G k1 = ∫ρ F_f
-    centred: np.ndarray     # E
     affine: np.ndarray    # H
     gravity: np.ndarray
     groups: dict[str, GroupRows]
@@ -141,7 +140,6 @@ def make_body(mass: Any, stiffness: Any, gram: Any, q0: np.ndarray, unit: np.nda
     B = np.asarray(gram @ centred)
     J = centred.T @ B
     return Body(mass=mass, stiffness=stiffness, gram=gram, q0=q0, unit=unit, field_mass=g1,
-                centred=centred,
                 affine=B @ np.linalg.inv(J), gravity=gravity, groups=groups,
                 total_mass_kg=total, second_moment=J,
                 size_m=float(np.sqrt(np.trace(J) / total)),

@@ -77,7 +77,7 @@ def translation_free_force(body: Body, P: np.ndarray) -> np.ndarray:
     return P - body.field_mass[:, None] * (body.unit @ P / body.total_mass_kg)[..., None, :]
 
 
-def frame_update(body: Body, q: np.ndarray, s: ElasticState,
+def frame_update(body: Body, s: ElasticState,
                  apply_A: Callable[[np.ndarray], np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """(X, Y) with J_eᵀ A J_e + G = T A Tᵀ + X Y, rank 9, for a symmetric operator A that
     annihilates translations (A = Kr gives the exact tangent ∂²V/∂q²).
@@ -131,5 +131,5 @@ def elastic_tangent(body: Body, q: np.ndarray, state: ElasticState | None = None
     """
     s = elastic_state(body, q) if state is None else state
     T = np.kron(np.eye(body.field_count), s.rotation)
-    X, Y = frame_update(body, q, s, lambda V: body.stiffness @ V)
+    X, Y = frame_update(body, s, lambda V: body.stiffness @ V)
     return T @ np.asarray(body.stiffness @ T.T) + X @ Y

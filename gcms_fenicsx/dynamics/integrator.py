@@ -190,10 +190,6 @@ class GeneralizedAlpha:
         self.frame_terms = False   # "rotated": start steps with the kept rank-9 term
         self.kept_steps = 0        # steps since the kept rank-9 term was re-linearised
 
-    def linear_state(self, q: np.ndarray, es: Any) -> ElasticState:
-        """The co-rotated linear state at q (``es`` itself unless another elastic model runs)."""
-        return es if self.corotated else elastic_state(self.body, q)
-
     def apply_A(self, X: np.ndarray) -> np.ndarray:
         """A X with A = γ' D₀ + Kr = γ'α Mr + (1 + γ'β) Kr, the operator J_e is applied to in
         the rank-9 term."""
@@ -202,8 +198,7 @@ class GeneralizedAlpha:
         return out + (self.gamma_p * alpha) * (self.body.mass @ X) if alpha else out
 
     # -- forces ---------------------------------------------------------------------------
-    def damping_force(self, q: np.ndarray, v: np.ndarray,
-                      es: ElasticState) -> tuple[np.ndarray, float]:
+    def damping_force(self, v: np.ndarray, es: ElasticState) -> tuple[np.ndarray, float]:
         """(f_d, ėᵀ D₀ ė) of co-rotated Rayleigh damping (module docstring)."""
         alpha, beta = self.damping
         body = self.body
@@ -222,7 +217,7 @@ class GeneralizedAlpha:
         r = self.body.mass @ acc + es.force - f_ext
         dissipation = 0.0
         if self.damped:
-            fd, dissipation = self.damping_force(q, v, self.linear_state(q, es))
+            fd, dissipation = self.damping_force(v, es)
             r += fd
         if self.constraints.count:
             r += self.constraints.transpose_times(lam, U)
@@ -275,7 +270,7 @@ class GeneralizedAlpha:
         f = f_ext - es.force
         dissipation = 0.0
         if self.damped:
-            fd, dissipation = self.damping_force(q, v, self.linear_state(q, es))
+            fd, dissipation = self.damping_force(v, es)
             f = f - fd
         solve = self.mass_solve()
         lam = np.zeros(c.count)
@@ -317,11 +312,11 @@ class GeneralizedAlpha:
             r, es, dissipation = self.residual(f_ext, q, v, acc, lam, U)
             g = c.residual(q, U)
             if jacobian == "assembled":
-                dq, dlam = self._assembled_correction(q, self.linear_state(q, es), r, g, U)
+                dq, dlam = self._assembled_correction(es, r, g, U)
                 delta = self._norm(dq)
             else:
                 if iteration == 1 or full_newton:
-                    self.kkt.prepare(q, self.linear_state(q, es), U, exact,
+                    self.kkt.prepare(es, U, exact,
                                      relinearise=relinearise or full_newton)
                 dq, dlam = self.kkt.solve(r, g)
                 delta = self._norm(dq)
@@ -332,7 +327,7 @@ class GeneralizedAlpha:
                     exact = exact or self.corotated
                     self.frame_terms = self.frame_terms or self.corotated
                     full_newton, self.kept_steps = True, 0
-                    self.kkt.prepare(q, self.linear_state(q, es), U, exact)
+                    self.kkt.prepare(es, U, exact)
                     dq, dlam = self.kkt.solve(r, g)
                     delta = self._norm(dq)
             if not delta < np.inf:
@@ -359,12 +354,12 @@ class GeneralizedAlpha:
         """The mass-weighted RMS size of a correction, √(Δqᵀ Mr Δq / m) (metres)."""
         return float(np.sqrt(abs(dq @ (self.body.mass @ dq)) / self.body.total_mass_kg))
 
-    def _assembled_correction(self, q: np.ndarray, es: ElasticState, r: np.ndarray,
+    def _assembled_correction(self, es: ElasticState, r: np.ndarray,
                               g: np.ndarray, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Solve [S Cᵀ; C 0] with S = T S₀ Tᵀ + X Y assembled densely (the baseline)."""
         n, m = self.body.dofs, self.constraints.count
         T = np.kron(np.eye(n // 3), es.rotation)
-        X, Y = frame_update(self.body, q, es, self.apply_A)
+        X, Y = frame_update(self.body, es, self.apply_A)
         S = T @ self.S0 @ T.T + X @ Y
         C = self.constraints.jacobian(U)
         kkt = np.block([[S, C.T], [C, np.zeros((m, m))]])
@@ -396,13 +391,12 @@ class _BorderedKKT:
                  apply_A: Callable[[np.ndarray], np.ndarray]) -> None:
         self.body, self.c, self.solve0, self.apply_A = body, constraints, solve, apply_A
         self.local: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-        self.nf = body.field_count
         m = constraints.count
         if m:
             nv = len(constraints.vectors)
             basis = np.zeros((body.dofs, nv, 3))
             for l in range(3):
-                basis.reshape(self.nf, 3, nv, 3)[:, l, :, l] = constraints.vectors.T
+                basis.reshape(body.field_count, 3, nv, 3)[:, l, :, l] = constraints.vectors.T
             Y = np.asarray(solve(basis.reshape(body.dofs, 3 * nv))).reshape(body.dofs, nv, 3)
             gamma = np.einsum("nka,nlb->kalb", basis, Y)
             idx = constraints.index
@@ -411,9 +405,12 @@ class _BorderedKKT:
             self.blocks = np.zeros((3 * m, m))                         # block-diagonal Rᵀu_i
             self.block_index = (np.arange(3 * m), np.repeat(np.arange(m), 3))
 
-    def prepare(self, q: np.ndarray, es: ElasticState, U: np.ndarray, exact: bool,
+    def prepare(self, es: Any, U: np.ndarray, exact: bool,
                 relinearise: bool = True) -> None:
         """Fix R, the constraint directions U and (``exact``) the rank-9 term for the step.
+
+        ``es``: the elastic state; without ``exact`` only its rotation is read, so another
+        elastic model's state serves (it carries the same frame R = polar(A(q))).
 
         The rank-9 term is kept in the body frame, X = T X_loc, Y = Y_loc Tᵀ: X_loc and Y_loc
         depend only on the local state (Q_loc, P, U, b), so S₀⁻¹ X_loc and the capacitance
@@ -430,7 +427,7 @@ class _BorderedKKT:
             matrix = B.T @ (self.gamma @ B)
         if exact:
             if relinearise or self.local is None:
-                X, Y = frame_update(self.body, q, es, self.apply_A)
+                X, Y = frame_update(self.body, es, self.apply_A)
                 X_loc, Y_loc = _rotate(R.T, X), _rotate(R.T, Y.T).T
                 SX_loc = np.asarray(self.solve0(X_loc))
                 self.local = (Y_loc, SX_loc, np.eye(X.shape[1]) + Y_loc @ SX_loc)

@@ -23,7 +23,7 @@ solves depend on the rows only through the few distinct v.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -178,7 +178,4 @@ def build_constraints(body: Body, joints: tuple[Joint, ...], q_start: np.ndarray
     base = Constraints(vectors=vec, index=idx, row_vectors=vec[idx],
                        directions=np.array(directions).reshape(-1, 3),
                        targets=np.zeros(len(index)), drives=drives, rows=tuple(rows))
-    targets = base.values(q_start, base.directions_at(0.0))
-    return Constraints(vectors=vec, index=idx, row_vectors=vec[idx],
-                       directions=base.directions, targets=targets, drives=drives,
-                       rows=base.rows)
+    return replace(base, targets=base.values(q_start, base.directions_at(0.0)))
