@@ -77,12 +77,7 @@ def staged_output(out_dir: Path, comm: Any = None) -> Iterator[Path]:
 
 
 def on_rank0(comm: Any, fn: Callable[..., T], *args: Any) -> T:
-    """``fn(*args)`` on rank 0 only; its result, or the exception it raised, on every rank.
-
-    ``comm`` None runs it serially.
-    """
-    if comm is None:
-        return fn(*args)
+    """``fn(*args)`` on rank 0 only; its result, or the exception it raised, on every rank."""
     result, error = None, None
     if comm.rank == 0:
         try:

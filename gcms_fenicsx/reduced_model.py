@@ -30,6 +30,7 @@ import h5py
 import numpy as np
 
 from gcms_fenicsx.outputs import atomic_file
+from gcms_fenicsx.versioned_file import open_versioned
 
 SCHEMA_VERSION: int = 1
 
@@ -42,9 +43,6 @@ _JSON_ATTRS = ("field_names", *_DICT_ATTRS)
 _SYMMETRY_RTOL = 1e-10  # |A - Aᵀ| relative to max|A|: Kr and Mr are symmetrised when built
 _WEIGHT_SUM_TOL = 1e-9
 # what h5py raises for a truncated or corrupted file, depending on where the damage is
-_H5PY_ERRORS = (OSError, KeyError, RuntimeError, ValueError, TypeError)
-
-
 class ReducedModelError(ValueError):
     """A reduced-model file or model that is missing data, malformed or of a newer schema."""
 
@@ -255,40 +253,17 @@ def write_reduced(path: str | Path, model: ReducedModel) -> None:
 def read_reduced(path: str | Path) -> ReducedModel:
     """Read and validate a reduced-model file; ReducedModelError names the path and the problem."""
     path = Path(path)
-    if not path.is_file():
-        raise ReducedModelError(f"{path}: " + ("not a file" if path.exists() else "no such file"))
-    try:
-        f = h5py.File(path, "r")
-    except _H5PY_ERRORS as exc:
-        raise ReducedModelError(f"{path}: not a readable HDF5 file (not HDF5, or truncated): "
-                                f"{exc}") from exc
-    with f:
-        try:
-            model = _read_open(f, str(path))
-        except ReducedModelError:
-            raise
-        except _H5PY_ERRORS as exc:
-            raise ReducedModelError(f"{path}: damaged HDF5 content: {exc}") from exc
+    with open_versioned(path, ReducedModelError, "reduced model", "schema",
+                        SCHEMA_VERSION) as (f, version):
+        model = _read_open(f, version, str(path))
     validate_model(model, str(path))
     return model
 
 
-def _read_open(f: h5py.File, where: str) -> ReducedModel:
-    """The model in the open file ``f``, after checking its schema and that nothing is missing."""
+def _read_open(f: h5py.File, version: int, where: str) -> ReducedModel:
+    """The model in the open file ``f`` of schema ``version``, after checking nothing is missing."""
     def fail(message: str) -> NoReturn:
         raise ReducedModelError(f"{where}: {message}")
-
-    if "schema_version" not in f.attrs:
-        fail("no schema_version attribute: not a gcms-fenicsx reduced model")
-    version = np.asarray(f.attrs["schema_version"])
-    if version.shape != () or version.dtype.kind not in "iu":
-        fail(f"schema_version is {version!r}, expected an integer")
-    version = int(version)
-    if version > SCHEMA_VERSION:
-        fail(f"written by a newer gcms-fenicsx: schema {version}, this reader understands up "
-             f"to {SCHEMA_VERSION}")
-    if version < 1:
-        fail(f"unknown schema_version {version}")
 
     missing = [f"attribute {name}" for name in ("input_hash", *_JSON_ATTRS)
                if name not in f.attrs]

@@ -45,12 +45,13 @@ def cached_model(cfg: StudyConfig, out: Path, progress: Progress) -> ReducedMode
 
 
 def run_scene(cfg: StudyConfig, model: ReducedModel, folder: Path,
-              progress: Progress) -> dict:
-    """Simulate ``cfg.scene`` and write results.h5, summary.json and the pictures."""
+              progress: Progress, plots: bool = True) -> dict:
+    """Simulate ``cfg.scene`` and write results.h5, summary.json and (``plots``) the pictures."""
     assert cfg.scene is not None
     traj, summary = simulate(model, cfg.scene, progress)
     write_results(folder / "results.h5", traj)
-    summary["plots"] = plot_results(traj, folder)
+    if plots:
+        summary["plots"] = plot_results(traj, folder)
     write_json(folder / "summary.json", summary)
     return summary
 

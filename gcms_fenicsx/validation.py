@@ -120,18 +120,14 @@ class Table:
 
     def number_list(self, key: str, default: Any = _MISSING) -> list[float]:
         value = self.get(key, default)
-        if not isinstance(value, (list, tuple)) or not all(
-                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-                for v in value):
+        if not _finite_numbers(value):
             raise self.error(key, value, "must be a list of finite numbers")
         return [float(v) for v in value]
 
     def vector(self, key: str, default: Any = _MISSING, length: int = 3) -> tuple[float, ...]:
         """A list of exactly ``length`` finite numbers (a 3-vector by default)."""
         value = self.get(key, default)
-        if (not isinstance(value, (list, tuple)) or len(value) != length or not all(
-                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-                for v in value)):
+        if not _finite_numbers(value) or len(value) != length:
             raise self.error(key, value, f"must be a list of {length} finite numbers")
         return tuple(float(v) for v in value)
 
@@ -171,3 +167,10 @@ def _range_text(low: float | None, high: float | None, low_open: bool, high_open
     if high is not None:
         parts.append(f"{'<' if high_open else '<='} {high:g}")
     return "must be " + " and ".join(parts)
+
+
+def _finite_numbers(value: Any) -> bool:
+    """A list (or tuple) of finite real numbers, booleans excluded."""
+    return isinstance(value, (list, tuple)) and all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+        for v in value)

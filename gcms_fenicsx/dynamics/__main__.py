@@ -11,13 +11,12 @@ import sys
 from pathlib import Path
 
 from gcms_fenicsx.config import load_config
-from gcms_fenicsx.dynamics.results import write_results
 from gcms_fenicsx.dynamics.scene import SceneError
-from gcms_fenicsx.dynamics.simulate import simulate
 from gcms_fenicsx.errors import ComputationFailed
-from gcms_fenicsx.outputs import staged_output, write_json
+from gcms_fenicsx.outputs import staged_output
 from gcms_fenicsx.progress import progress_printer
 from gcms_fenicsx.reduced_model import ReducedModelError, read_reduced
+from gcms_fenicsx.simulation import run_scene, simulation_summary
 from gcms_fenicsx.validation import ConfigError
 
 
@@ -29,23 +28,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, required=True, help="output folder")
     args = parser.parse_args(argv)
     try:
-        scene = load_config(args.config).scene
-        if scene is None:
+        cfg = load_config(args.config)
+        if cfg.scene is None:
             raise ConfigError.missing("[scene]", f"required in {args.config}")
         model = read_reduced(args.reduced)
         with staged_output(args.out) as folder:
-            traj, summary = simulate(model, scene, progress_printer())
-            write_results(folder / "results.h5", traj)
-            write_json(folder / "summary.json", summary)
+            summary = run_scene(cfg, model, folder, progress_printer(), plots=False)
     except (ConfigError, SceneError, ReducedModelError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except ComputationFailed as exc:
         print(f"failed: {exc}", file=sys.stderr)
         return 1
-    state = "complete" if summary["complete"] else f"INCOMPLETE: {summary['message']}"
-    print(f"{summary['steps']} steps to t = {summary['time_reached_s']:.6g} s, {state}; "
-          f"results in {args.out}/")
+    print(f"{simulation_summary(summary)}\nresults in {args.out}/")
     return 0 if summary["complete"] else 1
 
 

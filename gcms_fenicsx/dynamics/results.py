@@ -23,6 +23,7 @@ import h5py
 import numpy as np
 
 from gcms_fenicsx.outputs import atomic_file
+from gcms_fenicsx.versioned_file import open_versioned
 
 RESULTS_SCHEMA_VERSION: int = 1
 ENERGY_NAMES = ("kinetic", "elastic", "gravity", "load_work", "constraint_work",
@@ -105,60 +106,43 @@ def write_results(path: str | Path, traj: Trajectory) -> None:
 def read_results(path: str | Path) -> Trajectory:
     """Read a results file; ResultsError names the file and what is wrong with it."""
     path = Path(path)
-    where = str(path)
 
     def fail(message: str) -> NoReturn:
-        raise ResultsError(f"{where}: {message}")
+        raise ResultsError(f"{path}: {message}")
 
-    if not path.is_file():
-        fail("no such file")
-    try:
-        f = h5py.File(path, "r")
-    except (OSError, ValueError) as exc:
-        fail(f"not a readable HDF5 file (not HDF5, or truncated): {exc}")
-    with f:
-        try:
-            if "schema_version" not in f.attrs:
-                fail("no schema_version attribute: not a gcms-fenicsx results file")
-            version = int(np.asarray(f.attrs["schema_version"]))
-            if version > RESULTS_SCHEMA_VERSION:
-                fail(f"written by a newer gcms-fenicsx: results schema {version}, this reader "
-                     f"understands up to {RESULTS_SCHEMA_VERSION}")
-            missing = [n for n in ("time", "newton_iterations", "constraints/multipliers")
-                       if n not in f]
-            missing += [a for a in ("complete", "message", "rows", "scene", "model_hash")
-                        if a not in f.attrs]
-            if missing:
-                fail("missing " + ", ".join(missing))
-            time = f["time"][()]
-            k = len(time)
+    with open_versioned(path, ResultsError, "results file", "results schema",
+                        RESULTS_SCHEMA_VERSION) as (f, version):
+        missing = [n for n in ("time", "newton_iterations", "constraints/multipliers")
+                   if n not in f]
+        missing += [a for a in ("complete", "message", "rows", "scene", "model_hash")
+                    if a not in f.attrs]
+        if missing:
+            fail("missing " + ", ".join(missing))
+        time = f["time"][()]
+        k = len(time)
 
-            def series(name: str, shape: tuple[int, ...] = ()) -> np.ndarray:
-                data = f[name][()]
-                if data.shape[:1] != (k,) or data.shape[1:] != shape:
-                    fail(f"/{name} has shape {data.shape}, expected {(k, *shape)}")
-                return data
+        def series(name: str, shape: tuple[int, ...] = ()) -> np.ndarray:
+            data = f[name][()]
+            if data.shape[:1] != (k,) or data.shape[1:] != shape:
+                fail(f"/{name} has shape {data.shape}, expected {(k, *shape)}")
+            return data
 
-            rows = json.loads(f.attrs["rows"])
-            groups = {g: {s: series(f"groups/{g}/{s}", (3,)) for s in f["groups"][g]}
-                      for g in f.get("groups", {})}
-            traj = Trajectory(
-                time=time, newton_iterations=series("newton_iterations"),
-                groups=groups,
-                energy={n: series(f"energy/{n}") for n in f.get("energy", {})},
-                momentum={n: series(f"momentum/{n}", (3,)) for n in f.get("momentum", {})},
-                multipliers=series("constraints/multipliers", (len(rows),)),
-                rows=rows,
-                coordinates={n: f[f"coordinates/{n}"][()] for n in f.get("coordinates", {})},
-                complete=bool(f.attrs["complete"]), message=str(f.attrs["message"]),
-                model_hash=str(f.attrs["model_hash"]), scene=json.loads(f.attrs["scene"]),
-                schema_version=version)
-            if "fields" in f:
-                traj.field_time = f["fields/time"][()]
-                traj.displacement = f["fields/displacement"][()]
-                traj.nodes_m = f["fields/nodes_m"][()]
-            return traj
-        except ResultsError:
-            raise
-        except (OSError, KeyError, TypeError, ValueError, json.JSONDecodeError) as exc:
-            fail(f"damaged content: {exc}")
+        rows = json.loads(f.attrs["rows"])
+        groups = {g: {s: series(f"groups/{g}/{s}", (3,)) for s in f["groups"][g]}
+                  for g in f.get("groups", {})}
+        traj = Trajectory(
+            time=time, newton_iterations=series("newton_iterations"),
+            groups=groups,
+            energy={n: series(f"energy/{n}") for n in f.get("energy", {})},
+            momentum={n: series(f"momentum/{n}", (3,)) for n in f.get("momentum", {})},
+            multipliers=series("constraints/multipliers", (len(rows),)),
+            rows=rows,
+            coordinates={n: f[f"coordinates/{n}"][()] for n in f.get("coordinates", {})},
+            complete=bool(f.attrs["complete"]), message=str(f.attrs["message"]),
+            model_hash=str(f.attrs["model_hash"]), scene=json.loads(f.attrs["scene"]),
+            schema_version=version)
+        if "fields" in f:
+            traj.field_time = f["fields/time"][()]
+            traj.displacement = f["fields/displacement"][()]
+            traj.nodes_m = f["fields/nodes_m"][()]
+        return traj
