@@ -27,3 +27,26 @@ def mpirun(args: list[str], n: int = 2, timeout: float = 600) -> subprocess.Comp
 @pytest.fixture
 def run_mpi():
     return mpirun
+
+
+def gcms(*args: str) -> subprocess.CompletedProcess:
+    """``python -m gcms_fenicsx.cli ARGS`` from the repository root, finished."""
+    return subprocess.run([sys.executable, "-m", "gcms_fenicsx.cli", *args], cwd=REPO,
+                          capture_output=True, text=True, timeout=600)
+
+
+def gcms_reduce(text: str, config: Path, out: Path, ranks: int = 1) -> Path:
+    """``gcms reduce`` of the study ``text`` (written to ``config``) into ``out``, on ``ranks``."""
+    config.write_text(text)
+    args = ["reduce", str(config), "--out", str(out)]
+    run = gcms(*args) if ranks == 1 else mpirun(["-m", "gcms_fenicsx.cli", *args], n=ranks)
+    assert run.returncode == 0, run.stderr
+    return out
+
+
+@pytest.fixture(scope="session")
+def beam6_reduced(tmp_path_factory) -> Path:
+    """reduced.h5 of the six-mode test beam of ``test_dynamics``, reduced once per session."""
+    from test_dynamics import beam_study
+    folder = tmp_path_factory.mktemp("beam6")
+    return gcms_reduce(beam_study(6), folder / "study.toml", folder) / "reduced.h5"

@@ -2,13 +2,11 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
-from conftest import REPO, mpirun
+from conftest import REPO, gcms, mpirun
 from gcms_fenicsx.config import default_config_text, load_config
 from gcms_fenicsx.validation import ConfigError
 
@@ -27,11 +25,6 @@ order = 2
 [modes]
 count = 6
 """
-
-
-def gcms(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "gcms_fenicsx.cli", *args], cwd=REPO,
-                          capture_output=True, text=True, timeout=600)
 
 
 @pytest.fixture

@@ -13,6 +13,7 @@ import math
 import numpy as np
 import pytest
 
+from conftest import gcms_reduce
 from gcms_fenicsx.dynamics.body import Body, body_from_reduced
 from gcms_fenicsx.dynamics.corotated import (elastic_state, elastic_tangent,
                                              translation_free_force, without_translation)
@@ -22,7 +23,6 @@ from gcms_fenicsx.dynamics.scene import parse_scene
 from gcms_fenicsx.dynamics.simulate import elastic_modes, simulate_body
 from gcms_fenicsx.dynamics.spectra import peak_frequency_hz
 from gcms_fenicsx.reduced_model import read_reduced
-from test_cli import gcms
 
 EPS = np.finfo(float).eps
 LENGTH, WIDTH_Y, HEIGHT_Z = 0.5, 0.03, 0.02
@@ -55,26 +55,19 @@ def beam_study(count: int = 6) -> str:
     return BEAM_STUDY.replace("{count}", str(count))
 
 
-def reduce_study(folder, text: str):
-    """``gcms reduce`` of the study ``text`` into ``folder``; the reduced model."""
-    config = folder / "study.toml"
-    config.write_text(text)
-    run = gcms("reduce", str(config), "--out", str(folder))
-    assert run.returncode == 0, run.stderr
-    return read_reduced(folder / "reduced.h5")
-
-
 @pytest.fixture(scope="module")
-def beam(tmp_path_factory):
+def beam(beam6_reduced):
     """(model, body): the beam with six elastic modes (66 coordinates)."""
-    model = reduce_study(tmp_path_factory.mktemp("beam6"), beam_study(6))
+    model = read_reduced(beam6_reduced)
     return model, body_from_reduced(model)
 
 
 @pytest.fixture(scope="module")
 def beam30(tmp_path_factory):
     """(model, body): the same beam with thirty elastic modes (282 coordinates), for statics."""
-    model = reduce_study(tmp_path_factory.mktemp("beam30"), beam_study(30))
+    folder = tmp_path_factory.mktemp("beam30")
+    model = read_reduced(gcms_reduce(beam_study(30), folder / "study.toml", folder)
+                         / "reduced.h5")
     return model, body_from_reduced(model)
 
 

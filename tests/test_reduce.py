@@ -7,9 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from conftest import mpirun
+from conftest import gcms, gcms_reduce
 from gcms_fenicsx.reduced_model import read_reduced
-from test_cli import gcms
 
 BEAM = """
 [geometry]
@@ -33,12 +32,7 @@ SELECTION_KEYS = {"columns_before", "columns_after", "fields_kept", "fields_drop
 
 
 def _reduce(tmp_path, text: str, name: str = "out", ranks: int = 1):
-    config = tmp_path / f"{name}.toml"
-    config.write_text(text)
-    out = tmp_path / name
-    args = ["reduce", str(config), "--out", str(out)]
-    run = gcms(*args) if ranks == 1 else mpirun(["-m", "gcms_fenicsx.cli", *args], n=ranks)
-    assert run.returncode == 0, run.stderr
+    out = gcms_reduce(text, tmp_path / f"{name}.toml", tmp_path / name, ranks)
     return json.loads((out / "selection.json").read_text()), read_reduced(out / "reduced.h5")
 
 

@@ -14,11 +14,10 @@ import h5py
 import numpy as np
 import pytest
 
-from conftest import REPO
+from conftest import REPO, gcms
 from gcms_fenicsx.dynamics.results import (RESULTS_SCHEMA_VERSION, ResultsError, Trajectory,
                                            read_results, write_results)
 from gcms_fenicsx.reduced_model import read_reduced
-from test_cli import gcms
 from test_dynamics import beam_study
 
 #: A cantilever under gravity for 10 ms: cheap, with joints, loads and every output.
@@ -44,15 +43,10 @@ def standalone(*args: str) -> subprocess.CompletedProcess:
                           capture_output=True, text=True, timeout=600)
 
 
-@pytest.fixture(scope="module")
-def reduced(tmp_path_factory):
-    """reduced.h5 of the six-mode test beam (``gcms reduce``)."""
-    folder = tmp_path_factory.mktemp("reduced")
-    config = folder / "study.toml"
-    config.write_text(beam_study(6))
-    run = gcms("reduce", str(config), "--out", str(folder))
-    assert run.returncode == 0, run.stderr
-    return folder / "reduced.h5"
+@pytest.fixture
+def reduced(beam6_reduced):
+    """reduced.h5 of the six-mode test beam (shared by the session; tests only read or copy it)."""
+    return beam6_reduced
 
 
 def study(tmp_path, scene: str = SCENE, name: str = "study.toml", count: int = 6):
@@ -334,13 +328,10 @@ def test_initial_mode_amplitude_that_inverts_the_body_is_a_clear_error(reduced, 
 
 
 def test_ill_conditioned_reduced_model_is_a_clear_error(tmp_path):
-    """KNOWN BUG (fails today). A square beam reduced without preconditioning
-    ([selection] orthonormalize = false, cond(Mr) = 6e11) makes the integrator refuse its
-    iteration matrix ("numerically singular", IntegrationError raised by
-    ``dense_factorization`` in GeneralizedAlpha.__init__). ``gcms simulate`` must report that
-    in one line (exit status 1 or 2); today the IntegrationError escapes simulate_body, and
-    on its way through ``outputs.on_rank0`` mpi4py cannot even unpickle it
-    (IntegrationError.__init__ needs time_s): a TypeError traceback."""
+    """A square beam reduced without preconditioning ([selection] orthonormalize = false,
+    cond(Mr) = 6e11) makes the integrator refuse its iteration matrix ("numerically
+    singular", raised by ``dense_factorization``). ``gcms simulate`` reports that in one line
+    (exit status 1 or 2), also through ``outputs.on_rank0``: no traceback."""
     text = """
 [geometry]
 kind = "beam"
