@@ -20,7 +20,7 @@ from gcms_fenicsx.dynamics.corotated import (elastic_state, elastic_tangent,
 from gcms_fenicsx.dynamics.joints import build_constraints
 from gcms_fenicsx.dynamics.rotation import rotation_about, skew
 from gcms_fenicsx.dynamics.scene import parse_scene
-from gcms_fenicsx.dynamics.simulate import elastic_modes, simulate_body
+from gcms_fenicsx.dynamics.simulate import elastic_modes, modal_history, simulate_body
 from gcms_fenicsx.dynamics.spectra import peak_frequency_hz
 from gcms_fenicsx.reduced_model import read_reduced
 
@@ -220,14 +220,6 @@ def test_free_spinning_body_conserves_momentum_and_is_second_order(beam):
 
 
 # -- 3. free vibration at the eigenfrequency ---------------------------------------------
-
-def modal_history(body: Body, q: np.ndarray, mode: int) -> np.ndarray:
-    """ψ_modeᵀ Mr (vec(Q_loc) − q0) along a recorded trajectory: the co-rotated modal
-    coordinate (ψ Mr-orthonormal, so rigid motion and the other modes drop out)."""
-    _, psi = elastic_modes(body)
-    w = body.mass @ psi[:, 5 + mode]
-    return np.array([w @ (elastic_state(body, qk).local.ravel() - body.q0) for qk in q])
-
 
 @pytest.mark.parametrize("mode, spin_hz", [(1, 0.0), (1, 1.0), (2, 1.0)])
 def test_free_vibration_oscillates_at_the_eigenfrequency(beam, mode, spin_hz):

@@ -94,14 +94,11 @@ def worker(body: str, order: int, size: float, scipy_max: int) -> dict:
 
 def _scipy(model, modes, np) -> dict:
     """ARPACK shift-invert (SuperLU) on the same K, M, shift and number of modes (rigid included)."""
-    import scipy.sparse
     import scipy.sparse.linalg
 
-    def csr(A):
-        indptr, indices, data = A.getValuesCSR()
-        return scipy.sparse.csr_matrix((data, indices, indptr), shape=A.getSize())
+    from gcms_fenicsx.full_order import to_scipy
 
-    K, M = csr(model.K), csr(model.M)
+    K, M = to_scipy(model.K), to_scipy(model.M)
     t0 = time.perf_counter()
     values = scipy.sparse.linalg.eigsh(K, k=6 + COUNT, M=M, sigma=modes.shift, which="LM",
                                        return_eigenvectors=False)

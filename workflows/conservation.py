@@ -39,9 +39,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from gcms_fenicsx.dynamics.body import Body, body_from_reduced  # noqa: E402
-from gcms_fenicsx.dynamics.corotated import elastic_state  # noqa: E402
 from gcms_fenicsx.dynamics.scene import parse_scene  # noqa: E402
-from gcms_fenicsx.dynamics.simulate import elastic_modes, simulate_body  # noqa: E402
+from gcms_fenicsx.dynamics.simulate import modal_history, simulate_body  # noqa: E402
 from gcms_fenicsx.dynamics.spectra import peak_frequency_hz  # noqa: E402
 from gcms_fenicsx.reduced_model import ReducedModel, read_reduced  # noqa: E402
 
@@ -116,7 +115,6 @@ def spinning(body: Body) -> list[dict]:
 
 
 def vibration(model: ReducedModel, body: Body) -> list[dict]:
-    _, psi = elastic_modes(body)
     axis = np.array([0.3, 0.5, 1.0]) / np.linalg.norm([0.3, 0.5, 1.0])
     rows = []
     for mode, spin_hz in VIBRATION_CASES:
@@ -130,9 +128,7 @@ def vibration(model: ReducedModel, body: Body) -> list[dict]:
         traj, summary = simulate_body(body, scene)
         if not summary["complete"]:
             sys.exit(f"free vibration, mode {mode}: {summary['message']}")
-        w = body.mass @ psi[:, 5 + mode]
-        eta = np.array([w @ (elastic_state(body, q).local.ravel() - body.q0)
-                        for q in traj.coordinates["q"]])
+        eta = modal_history(body, traj.coordinates["q"], mode)
         peak = peak_frequency_hz(eta, h)
         discrete = math.atan(math.pi * f * h) / (math.pi * h)
         rows.append({

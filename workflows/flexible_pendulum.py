@@ -104,24 +104,36 @@ def run(body, scene, **kwargs) -> dict:
             "summary": summary}
 
 
-def study(damping: float, cfg, body_mesh, model, modes, groups, scene, quick: bool) -> dict:
-    from gcms_fenicsx import pendulum
-    from gcms_fenicsx.full_order import full_order_body, sparse_factorization, svk_elastic
+def references(full, model, scene) -> dict:
+    """Runs of the full-order body: (a) co-rotated linear, and (b) Saint Venant–Kirchhoff
+    unless ``scene`` is damped (co-rotated damping is not combined with SVK)."""
+    from gcms_fenicsx.full_order import sparse_factorization, svk_elastic
 
-    scene = replace(scene, damping_beta=damping)
-    full = full_order_body(model, groups)
-    rigid = pendulum.rigid_pendulum(full, np.array(scene.gravity), scene.end_time_s)
-    until = min(rigid.half_period_s, scene.end_time_s)
-    log(f"[damping {damping:g} s] reference (a): co-rotated linear, {full.dofs} DOFs")
     refs = {"a": run(full, scene, factorize=sparse_factorization)}
-    log(f"  {refs['a']['wall_s']:.0f} s")
-    if not damping:  # co-rotated damping is not combined with SVK (no reference for that)
-        log("  reference (b): Saint Venant–Kirchhoff")
+    log(f"  reference (a), co-rotated linear on {full.dofs} DOFs: {refs['a']['wall_s']:.0f} s")
+    if not scene.damping_beta:
         svk_scene = replace(scene, solver=replace(scene.solver, tolerance=SVK_TOLERANCE,
                                                   max_iterations=60))
         refs["b"] = run(full, svk_scene, factorize=sparse_factorization,
                         elastic=svk_elastic(model, full))
-        log(f"  {refs['b']['wall_s']:.0f} s")
+        log(f"  reference (b), Saint Venant–Kirchhoff: {refs['b']['wall_s']:.0f} s")
+    return refs
+
+
+def reductions(cfg, model, modes, body_mesh, quick: bool) -> list[tuple]:
+    """(Nm, tolerance, body, report, reduction wall time) for every GCMS case of the study."""
+    counts = (5, 10, 20) if quick else MODE_COUNTS
+    return [(nm, tol, *gcms_body(cfg, model, modes, body_mesh, nm, tol))
+            for nm in counts for tol in (None, *((1e-4,) if quick else TOLERANCES))]
+
+
+def study(damping: float, model, full, rigid, cases: list[tuple], scene) -> dict:
+    from gcms_fenicsx import pendulum
+
+    scene = replace(scene, damping_beta=damping)
+    until = min(rigid.half_period_s, scene.end_time_s)
+    log(f"[damping {damping:g} s]")
+    refs = references(full, model, scene)
     dev = {k: pendulum.tip_deviation(rigid, r["time"], r["tip"]) for k, r in refs.items()}
     k = refs["a"]["time"] <= until + 1e-12
     out = {"damping_beta_s": damping, "half_period_s": rigid.half_period_s, "until_s": until,
@@ -137,51 +149,44 @@ def study(damping: float, cfg, body_mesh, model, modes, groups, scene, quick: bo
                           for key, r in refs.items()},
            "gcms": [], "curves": {"time": refs["a"]["time"].tolist(),
                                   **{key: d.tolist() for key, d in dev.items()}}}
-    counts = (5, 10, 20) if quick else MODE_COUNTS
-    for nm in counts:
-        for tol in (None, *((1e-4,) if quick else TOLERANCES)):
-            body, report, reduce_s = gcms_body(cfg, model, modes, body_mesh, nm, tol)
-            r = run(body, scene)
-            d = pendulum.tip_deviation(rigid, r["time"], r["tip"])
-            row = {"modes": nm, "tolerance": "default" if tol is None else tol,
-                   "reduced_dofs": body.dofs, "columns_before": report["columns_before"],
-                   "pruning_error": report["max_rel_frequency_error"],
-                   "error_vs_a": pendulum.deviation_error(r["time"], d, dev["a"], until),
-                   "error_vs_b": (pendulum.deviation_error(r["time"], d, dev["b"], until)
-                                  if "b" in dev else None),
-                   "wall_s": r["wall_s"], "reduction_s": reduce_s,
-                   "steps_per_second": r["summary"]["steps_per_second"],
-                   "newton_iterations_mean": r["summary"]["newton_iterations_mean"],
-                   "speedup_vs_a": refs["a"]["wall_s"] / r["wall_s"],
-                   "speedup_vs_b": (refs["b"]["wall_s"] / r["wall_s"] if "b" in refs
-                                    else None)}
-            out["gcms"].append(row)
-            if tol is None and nm == 10:
-                out["curves"]["gcms10"] = d.tolist()
-            log(f"  Nm = {nm:2d}, tolerance {row['tolerance']}: {body.dofs} DOFs, error vs "
-                f"(a) {row['error_vs_a']:.2%}, vs (b) {_pct(row['error_vs_b'])}")
+    for nm, tol, body, report, reduce_s in cases:
+        r = run(body, scene)
+        d = pendulum.tip_deviation(rigid, r["time"], r["tip"])
+        row = {"modes": nm, "tolerance": "default" if tol is None else tol,
+               "reduced_dofs": body.dofs, "columns_before": report["columns_before"],
+               "pruning_error": report["max_rel_frequency_error"],
+               "error_vs_a": pendulum.deviation_error(r["time"], d, dev["a"], until),
+               "error_vs_b": (pendulum.deviation_error(r["time"], d, dev["b"], until)
+                              if "b" in dev else None),
+               "wall_s": r["wall_s"], "reduction_s": reduce_s,
+               "steps_per_second": r["summary"]["steps_per_second"],
+               "newton_iterations_mean": r["summary"]["newton_iterations_mean"],
+               "speedup_vs_a": refs["a"]["wall_s"] / r["wall_s"],
+               "speedup_vs_b": (refs["b"]["wall_s"] / r["wall_s"] if "b" in refs else None)}
+        out["gcms"].append(row)
+        if tol is None and nm == 10:
+            out["curves"]["gcms10"] = d.tolist()
+        log(f"  Nm = {nm:2d}, tolerance {row['tolerance']}: {body.dofs} DOFs, error vs "
+            f"(a) {row['error_vs_a']:.2%}, vs (b) {_pct(row['error_vs_b'])}")
     return out
 
 
-def stiffness_sweep(cfg, body_mesh, groups_of, scene, quick: bool) -> list[dict]:
+def stiffness_sweep(cfg, body_mesh, groups, scene, quick: bool) -> list[dict]:
     """(a), (b) and GCMS (Nm = 10, 20) at stiffer materials: where GCMS meets SVK."""
     from gcms_fenicsx import eigen, fe, pendulum
-    from gcms_fenicsx.full_order import full_order_body, sparse_factorization, svk_elastic
+    from gcms_fenicsx.full_order import full_order_body
     from gcms_fenicsx.material import Material
 
     rows = []
     for E in (SWEEP_E_PA[:1] if quick else SWEEP_E_PA):
+        log(f"[sweep] E = {E:.0e} Pa")
         material = Material(E=E, nu=cfg.material.nu, rho=cfg.material.rho)
         model = fe.assemble(body_mesh.mesh, material)
         modes = eigen.solve_free_free(model, replace(cfg.modes, count=20))
-        full = full_order_body(model, groups_of(model))
+        full = full_order_body(model, groups)
         rigid = pendulum.rigid_pendulum(full, np.array(scene.gravity), scene.end_time_s)
         until = min(rigid.half_period_s, scene.end_time_s)
-        svk_scene = replace(scene, solver=replace(scene.solver, tolerance=SVK_TOLERANCE,
-                                                  max_iterations=60))
-        refs = {"a": run(full, scene, factorize=sparse_factorization),
-                "b": run(full, svk_scene, factorize=sparse_factorization,
-                         elastic=svk_elastic(model, full))}
+        refs = references(full, model, scene)
         dev = {k: pendulum.tip_deviation(rigid, r["time"], r["tip"]) for k, r in refs.items()}
         k = refs["a"]["time"] <= until + 1e-12
         r2 = float(np.sort(np.linalg.eigvalsh(full.second_moment))[1]) / full.total_mass_kg
@@ -190,24 +195,19 @@ def stiffness_sweep(cfg, body_mesh, groups_of, scene, quick: bool) -> list[dict]
         row = {"E_pa": E, "lambda": lam, "tension_parameter": 2.5 * lam,
                "max_deviation_over_length": float(np.linalg.norm(dev["a"][k], axis=1).max()
                                                   / pendulum.LENGTH_M),
-               "a_vs_b": (pendulum.deviation_error(refs["a"]["time"], dev["a"], dev["b"], until)
-                      if "b" in dev else None),
+               "a_vs_b": pendulum.deviation_error(refs["a"]["time"], dev["a"], dev["b"], until),
                "reference_wall_s": {key: r["wall_s"] for key, r in refs.items()}}
         for nm in (10, 20):
-            body, _, _ = gcms_body(cfg_with(cfg, material), model, modes, body_mesh, nm, None)
+            body, _, _ = gcms_body(cfg, model, modes, body_mesh, nm, None)
             r = run(body, scene)
             d = pendulum.tip_deviation(rigid, r["time"], r["tip"])
             row[f"gcms{nm}_vs_a"] = pendulum.deviation_error(r["time"], d, dev["a"], until)
             row[f"gcms{nm}_vs_b"] = pendulum.deviation_error(r["time"], d, dev["b"], until)
         rows.append(row)
-        log(f"[sweep] E = {E:.0e} Pa: Λ = {lam:.2f}, deviation {row['max_deviation_over_length']:.3%}"
-            f" of L, (a) vs (b) {row['a_vs_b']:.2%}, GCMS10 vs (a) {row['gcms10_vs_a']:.2%}, "
+        log(f"  Λ = {lam:.2f}, deviation {row['max_deviation_over_length']:.3%} of L, "
+            f"(a) vs (b) {row['a_vs_b']:.2%}, GCMS10 vs (a) {row['gcms10_vs_a']:.2%}, "
             f"vs (b) {row['gcms10_vs_b']:.2%}")
     return rows
-
-
-def cfg_with(cfg, material):
-    return replace(cfg, material=material)
 
 
 def sweep_table(rows: list[dict]) -> str:
@@ -295,22 +295,23 @@ def main() -> None:
     parser.add_argument("--sweep-only", action="store_true", help="only the stiffness sweep")
     args = parser.parse_args()
     logging.disable(logging.INFO)
-    from gcms_fenicsx.node_groups import group_weights
+    from gcms_fenicsx import pendulum
+    from gcms_fenicsx.full_order import full_order_body
 
     cfg, body_mesh, model, modes, groups, scene, offline_s = setup(args.quick)
     if args.sweep_only:
-        rows = stiffness_sweep(cfg, body_mesh, lambda m: group_weights(body_mesh, m.Vs), scene,
-                               args.quick)
+        rows = stiffness_sweep(cfg, body_mesh, groups, scene, args.quick)
         Path(f"{args.out}_sweep.json").write_text(json.dumps(rows, indent=1))
         print(sweep_table(rows))
         return
     log(f"setup: {model.ndofs} DOFs, {len(modes.elastic_eigenvalues)} modes in {offline_s:.1f} s")
-    results = [study(beta, cfg, body_mesh, model, modes, groups, scene, args.quick)
-               for beta in (0.0, DAMPING_BETA_S)]
+    full = full_order_body(model, groups)
+    rigid = pendulum.rigid_pendulum(full, np.array(scene.gravity), scene.end_time_s)
+    cases = reductions(cfg, model, modes, body_mesh, args.quick)
+    results = [study(beta, model, full, rigid, cases, scene) for beta in (0.0, DAMPING_BETA_S)]
     for r in results:
         r["eigensolve_and_assembly_s"] = offline_s
-    sweep = stiffness_sweep(cfg, body_mesh, lambda m: group_weights(body_mesh, m.Vs), scene,
-                            args.quick)
+    sweep = stiffness_sweep(cfg, body_mesh, groups, scene, args.quick)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     Path(f"{args.out}.json").write_text(json.dumps({"studies": results, "sweep": sweep},
                                                    indent=1))

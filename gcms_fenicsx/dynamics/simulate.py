@@ -14,6 +14,7 @@ from dataclasses import asdict
 import numpy as np
 
 from gcms_fenicsx.dynamics.body import Body, body_from_reduced
+from gcms_fenicsx.dynamics.corotated import elastic_state
 from gcms_fenicsx.dynamics.integrator import (Elastic, Factorize, GeneralizedAlpha,
                                               IntegrationError, dense_factorization)
 from gcms_fenicsx.dynamics.joints import build_constraints
@@ -37,6 +38,15 @@ def elastic_modes(body: Body) -> tuple[np.ndarray, np.ndarray]:
     A = L_inv @ np.asarray(body.stiffness) @ L_inv.T
     lam, Y = np.linalg.eigh(0.5 * (A + A.T))
     return lam, L_inv.T @ Y
+
+
+def modal_history(body: Body, q: np.ndarray, mode: int) -> np.ndarray:
+    """ψ_modeᵀ Mr (vec(Q_loc) − q0) along recorded coordinates q (steps × n): the co-rotated
+    coordinate of elastic mode ``mode`` (1-based; ψ Mr-orthonormal, so rigid motion and the
+    other modes drop out)."""
+    _, psi = elastic_modes(body)
+    w = body.mass @ psi[:, 5 + mode]
+    return np.array([w @ (elastic_state(body, qk).local.ravel() - body.q0) for qk in q])
 
 
 def initial_coordinates(body: Body, initial: Initial) -> np.ndarray:
