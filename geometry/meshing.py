@@ -184,7 +184,8 @@ def gmsh_session(verbose: bool = False) -> Iterator[SetOption]:
 
     If nobody has initialized Gmsh, the session initializes and finalizes it. If someone
     has, it leaves their session alone: it works in a model of its own, removes it at
-    the end, makes theirs current again and restores every option it set.
+    the end, makes theirs current again and restores every option it set. (With Gmsh 4.8
+    a caller's session is recognised if it was opened after this module's import.)
     """
     saved: dict[str, float] = {}
 
@@ -213,13 +214,36 @@ def gmsh_session(verbose: bool = False) -> Iterator[SetOption]:
         yield set_option
 
 
+#: Gmsh 4.8 has no isInitialized, and an API call made before the process's first
+#: gmsh.initialize reads options that were never set: depending on the heap it returns,
+#: raises, or ends the process with status 1 (seen as a silent pytest exit). Every
+#: gmsh.initialize after this module's import is recorded, so the probe in
+#: gmsh_initialized runs only once Gmsh has been initialized at least once.
+_ever_initialized = False
+
+
+def _recording(initialize: Callable[..., None]) -> Callable[..., None]:
+    """gmsh.initialize, noting in ``_ever_initialized`` that the process has called it."""
+    def recorded(*args: Any, **kwargs: Any) -> None:
+        global _ever_initialized
+        initialize(*args, **kwargs)
+        _ever_initialized = True
+    return recorded
+
+
+if not hasattr(gmsh, "isInitialized"):
+    gmsh.initialize = _recording(gmsh.initialize)
+
+
 def gmsh_initialized() -> bool:
-    """gmsh.isInitialized() where it exists (Gmsh ≥ 4.9). Gmsh 4.8 lacks it: probe with
-    gmsh.model.list(), which is empty before the first initialize, lists at least one
-    model while initialized, and raises (after printing an error, silenced here) once
-    finalized."""
+    """gmsh.isInitialized() where it exists (Gmsh ≥ 4.9). Gmsh 4.8 lacks it: False until
+    gmsh.initialize has been called in this process (see ``_ever_initialized``), then a
+    probe with gmsh.model.list(), which lists at least one model while initialized and
+    raises (after printing an error, silenced here) once finalized."""
     if hasattr(gmsh, "isInitialized"):
         return bool(gmsh.isInitialized())
+    if not _ever_initialized:
+        return False
     with _silenced_output():
         try:
             return bool(gmsh.model.list())

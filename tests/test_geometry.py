@@ -238,3 +238,18 @@ def test_someone_elses_gmsh_session_is_left_alone(tmp_path):
     finally:
         gmsh.finalize()
     assert (tmp_path / "mesh.msh").is_file()
+
+
+def test_no_gmsh_call_before_the_first_initialize(monkeypatch):
+    """Before a process has initialized Gmsh, asking whether it is initialized must not call
+    the Gmsh API: Gmsh 4.8 then reads options that were never set and may exit the process."""
+    if hasattr(gmsh, "isInitialized"):
+        pytest.skip("this Gmsh answers isInitialized itself")
+    from geometry import meshing
+
+    def fatal():
+        raise AssertionError("gmsh.model.list called before gmsh.initialize")
+
+    monkeypatch.setattr(meshing, "_ever_initialized", False)
+    monkeypatch.setattr(gmsh.model, "list", fatal)
+    assert not gmsh_initialized()
