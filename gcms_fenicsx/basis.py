@@ -16,11 +16,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse
 from mpi4py import MPI
 from petsc4py import PETSc
 
 from gcms_fenicsx.eigen import Modes
-from gcms_fenicsx.fe import FEModel, dense_operand, gram, mat_dense
+from gcms_fenicsx.fe import FEModel, gram, mat_dense, rows_at
 
 RIGID_FIELDS = ("1", "X", "Y", "Z")
 AXES = "xyz"
@@ -87,31 +88,62 @@ def reduced_mass(gram_mass: np.ndarray) -> np.ndarray:
 
 
 def reduced_stiffness(model: FEModel, fields: np.ndarray) -> np.ndarray:
-    """Kr = Φᵀ K Φ by direction blocks, without forming Φ.
+    """Kr = Φᵀ K Φ for Φ = F ⊗ I3, from this rank's rows of K, without forming Φ.
 
-    With K_lm the node-by-node block of K coupling direction l to direction m (rows l::3,
-    columns m::3), Kr[(f, l), (g, m)] = (Fᵀ K_lm F)[f, g]; K_ml = K_lmᵀ, so six
-    sparse-times-dense products with one column per field: a fifth of the work of K Φ with
-    its 3·fields columns.
+    On the blocked space K is stored in 3×3 node blocks: row (i, k) (node i, direction k)
+    holds, for each neighbour node j, the columns (j, 0), (j, 1), (j, 2) side by side, and
+    node i's three rows have the same neighbours. Every third stored value, from offset l,
+    is therefore a node-column matrix A_l[(i, k), j] = K[(i, k), (j, l)], and
+        (A_l F)[(i, k), g] = Σ_j K[(i, k), (j, l)] F[j, g] = (K Φ)[(i, k), (g, l)],
+        Kr[(f, k), (g, l)] = Σ_i F[i, f] (A_l F)[(i, k), g].
+    K is symmetric (block (l, k) of Kr is block (k, l) transposed), so for column direction l
+    only the rows k ≤ l are multiplied: the first l + 1 of each node's three rows, which
+    are stored one after another. Each sparse product has one column per field, and the
+    three read two thirds of K's stored entries.
+    Columns owned by other ranks take their rows of F from there (:func:`rows_at`).
     """
     K = model.K
-    comm = K.getComm()
-    first, last = K.getOwnershipRange()
-    rows = [PETSc.IS().createStride((last - first) // 3, first=first + l, step=3, comm=comm)
-            for l in range(3)]
-    nf = fields.shape[1]
+    indptr, indices, values = K.getValuesCSR()  # this rank's rows; global column numbers
+    if np.any(indptr % 3):
+        raise ValueError("K is not stored in 3×3 node blocks: not a blocked vector space")
+    n, nf = fields.shape
+    columns, F = _column_fields(K, fields, indices[::3] // 3)
+    first = indptr[:-1:3] // 3  # where node i's rows start among the entries of an A_l
+    neighbours = indptr[1::3] // 3 - first  # stored neighbours of node i (each of its rows)
     local = np.empty((nf, 3, nf, 3))
-    operand = None  # F as a PETSc dense matrix, made once for the six products
     for l in range(3):
-        for m in range(l, 3):  # K symmetric: the (m, l) block is the (l, m) block transposed
-            K_lm = K.createSubMatrix(rows[l], rows[m])
-            if operand is None:
-                operand = dense_operand(K_lm, fields)
-            local[:, l, :, m] = fields.T @ mat_dense(K_lm, fields, operand)
-            local[:, m, :, l] = local[:, l, :, m].T
-            K_lm.destroy()
-    operand.destroy()
+        row_lengths = np.repeat(neighbours, l + 1)  # rows (i, k) for k ≤ l, node-major
+        if l < 2:  # node i's first l + 1 rows: entries first[i] .. first[i] + taken[i]
+            taken = (l + 1) * neighbours
+            ends = np.cumsum(taken, dtype=indptr.dtype)
+            pick = (np.arange(ends[-1], dtype=indptr.dtype)
+                    + np.repeat(first - (ends - taken), taken))
+            data, cols = np.take(values[l::3], pick), np.take(columns, pick)
+        else:  # all three rows: the stored order itself
+            data, cols = values[l::3], columns
+        ptr = np.zeros(len(row_lengths) + 1, dtype=indptr.dtype)
+        np.cumsum(row_lengths, out=ptr[1:])
+        A_l = scipy.sparse.csr_matrix((data, cols, ptr), shape=(len(row_lengths), F.shape[0]))
+        KPhi = (A_l @ F).reshape(n, (l + 1) * nf)  # row i: (K Φ)[(i, k), (g, l)], k ≤ l
+        local[:, :l + 1, :, l] = (fields.T @ KPhi).reshape(nf, l + 1, nf)
+        for k in range(l):
+            local[:, l, :, k] = local[:, k, :, l].T
     return symmetric(model.comm.allreduce(local.reshape(3 * nf, 3 * nf), op=MPI.SUM))
+
+
+def _column_fields(K: PETSc.Mat, fields: np.ndarray,
+                   nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of F for K's column nodes: local column numbers into [owned F; fetched rows]."""
+    n = fields.shape[0]
+    first = K.getOwnershipRange()[0] // 3
+    columns = nodes - first
+    remote = (columns < 0) | (columns >= n)
+    others, position = np.unique(nodes[remote], return_inverse=True)
+    fetched = rows_at(K.getComm(), fields, others)  # collective: every rank calls it
+    if not len(others):
+        return columns, fields
+    columns[remote] = n + position
+    return columns, np.vstack([fields, fetched])
 
 
 def symmetric(A: np.ndarray) -> np.ndarray:

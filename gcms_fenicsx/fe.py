@@ -113,17 +113,29 @@ def dense_operand(A: PETSc.Mat, X: np.ndarray) -> PETSc.Mat:
     return B
 
 
-def mat_dense(A: PETSc.Mat, X: np.ndarray, operand: PETSc.Mat | None = None) -> np.ndarray:
-    """A @ X for X holding this rank's owned rows (one sparse-times-dense MatMatMult).
-
-    ``operand``: X already wrapped by :func:`dense_operand` (to reuse it for several A).
-    """
-    B = dense_operand(A, X) if operand is None else operand
+def mat_dense(A: PETSc.Mat, X: np.ndarray) -> np.ndarray:
+    """A @ X for X holding this rank's owned rows (one sparse-times-dense MatMatMult)."""
+    B = dense_operand(A, X)
     C = A.matMult(B)
     out = C.getDenseArray().copy()
-    if operand is None:
-        B.destroy()
+    B.destroy()
     C.destroy()
+    return out
+
+
+def rows_at(comm: PETSc.Comm, X: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Rows of the row-distributed X (this rank's owned rows, in rank order) at global
+    row numbers ``rows``, wherever they are owned. Collective; a rank may ask for none."""
+    width = X.shape[1]
+    x = PETSc.Vec().createWithArray(np.ascontiguousarray(X, dtype=PETSc.ScalarType).ravel(),
+                                    size=(X.size, PETSc.DECIDE), bsize=width, comm=comm)
+    index = PETSc.IS().createBlock(width, rows.astype(PETSc.IntType), comm=PETSc.COMM_SELF)
+    y = PETSc.Vec().createSeq(len(rows) * width, bsize=width, comm=PETSc.COMM_SELF)
+    scatter = PETSc.Scatter().create(x, index, y, None)
+    scatter.scatter(x, y, PETSc.InsertMode.INSERT_VALUES, PETSc.ScatterMode.FORWARD)
+    out = y.getArray().reshape(-1, width).copy()
+    for obj in (scatter, y, index, x):
+        obj.destroy()
     return out
 
 

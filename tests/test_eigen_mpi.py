@@ -23,6 +23,8 @@ def test_two_ranks_give_the_serial_frequencies():
     assert one["missed"] == two["missed"] == 0
     assert two["residual"] < 1e-8
     assert two["kron_defect"] < 1e-14
+    # Kr from K's node blocks, with the rows of F a rank does not own fetched, against ΦᵀKΦ
+    assert one["kr_defect"] < 1e-13 and two["kr_defect"] < 1e-13
     np.testing.assert_allclose(two["volume"], one["volume"], rtol=1e-12)
     np.testing.assert_allclose(two["inertia"], one["inertia"], rtol=1e-10, atol=1e-20)
     # GCMS fields and reduced matrices: same selection, the same Kr and Mr (up to each

@@ -46,6 +46,15 @@ def test_reduced_mass_is_the_kronecker_gram(square):
                                atol=1e-10 * np.abs(Kr).max())
 
 
+def test_reduced_stiffness_needs_a_blocked_stiffness(square):
+    """Kr reads K's 3×3 node blocks; a scalar matrix in its place is refused, not misread."""
+    from dataclasses import replace
+
+    model, _, B = square
+    with pytest.raises(ValueError, match="3×3 node blocks"):
+        basis.reduced_stiffness(replace(model, K=model.Ms), B.fields)
+
+
 def test_column_order_is_the_references(square):
     _, _, B = square
     names = B.column_names()
