@@ -2,7 +2,7 @@
 
 What this module is for: the field matrix F = [1, X, Y, Z, φ_1^1, φ_1^2, φ_1^3, φ_2^1, …]
 (X measured from the centre of mass), its small Gram matrices G = Fᵀ Ms F and FᵀF, the
-reduced matrices Mr = G ⊗ I3 and Kr = Φᵀ K Φ (by direction blocks of K, without Φ), and
+reduced matrices Mr = G ⊗ I3 and Kr = Φᵀ K Φ (from K's stored node blocks, without Φ), and
 the dense Φ only when a caller asks.
 Column (f, l) of Φ — field f in direction l — is column 3f + l, which is the reference's
 order: Φt (l), Φr (k, l), then Φf (m, k, l).
