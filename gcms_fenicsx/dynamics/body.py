@@ -24,7 +24,6 @@ from typing import Any
 import numpy as np
 
 from gcms_fenicsx.dynamics.rotation import skew
-from gcms_fenicsx.dynamics.scene import SceneError
 from gcms_fenicsx.reduced_model import ReducedModel
 
 #: A group direction is in the span of its nodes when its second moment exceeds this
@@ -81,7 +80,7 @@ class Body:
     field_mass: np.ndarray  # g1 = G k1 = ∫ρ F_f
     affine: np.ndarray    # H
     gravity: np.ndarray
-    groups: dict[str, GroupRows]
+    groups: dict[str, GroupRows]  # by name; a scene's names are checked by Scene.check_groups
     total_mass_kg: float
     second_moment: np.ndarray  # J = Eᵀ G E = ∫ρ X̃ X̃ᵀ (kg·m²), about the centre of mass
     size_m: float         # radius of gyration √(tr J / m): the length scale of tolerances
@@ -95,12 +94,6 @@ class Body:
     @property
     def field_count(self) -> int:
         return self.q0.shape[0] // 3
-
-    def group(self, name: str) -> GroupRows:
-        if name not in self.groups:
-            known = ", ".join(sorted(self.groups)) or "(none)"
-            raise SceneError(f"no node group {name!r} on this body; the groups are: {known}")
-        return self.groups[name]
 
     def displacement(self, q: np.ndarray) -> np.ndarray:
         """Nodal displacements F Q − X (N × 3)."""

@@ -148,7 +148,7 @@ def build_constraints(body: Body, joints: tuple[Joint, ...], q_start: np.ndarray
         return len(index) - 1
 
     for joint in joints:
-        g = body.group(joint.group)
+        g = body.groups[joint.group]
         start = len(vectors)
         vectors.append(g.position)
         for k in range(3):

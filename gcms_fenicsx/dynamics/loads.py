@@ -37,7 +37,7 @@ class ExternalForces:
 
 def external_forces(body: Body, gravity: tuple[float, float, float],
                     loads: tuple[Load, ...]) -> ExternalForces:
-    vectors = np.column_stack([np.kron(body.group(load.group).position, load.force_n)
+    vectors = np.column_stack([np.kron(body.groups[load.group].position, load.force_n)
                                for load in loads]) if loads else np.zeros((body.dofs, 0))
     return ExternalForces(gravity_force=body.gravity @ np.asarray(gravity, float),
                           load_vectors=vectors, loads=loads)

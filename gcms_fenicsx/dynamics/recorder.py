@@ -34,7 +34,7 @@ class Recorder:
         self.k = 0
         self.time = np.zeros(k)
         self.iterations = np.zeros(k, dtype=np.int32)
-        self.groups = {g: (body.group(g), np.zeros((k, 3)), np.zeros((k, 3)))
+        self.groups = {g: (body.groups[g], np.zeros((k, 3)), np.zeros((k, 3)))
                        for g in outputs.groups}
         self.energy = {name: np.zeros(k) for name in ENERGY_NAMES} if outputs.energy else {}
         self.momentum = {"linear": np.zeros((k, 3)), "angular": np.zeros((k, 3))}
