@@ -17,10 +17,10 @@ from petsc4py import PETSc
 
 from gcms_fenicsx import eigen, fe
 from gcms_fenicsx.config import StudyConfig, load_config
-from gcms_fenicsx.mesh import BodyMesh, read_mesh
+from gcms_fenicsx.mesh import BodyMesh
 from gcms_fenicsx.modes_io import frequency_table, modes_report, write_mode_shapes
 from gcms_fenicsx.outputs import on_rank0, staged_output, write_json
-from gcms_fenicsx.pipeline import MeshStage, mesh_report, mesh_stage
+from gcms_fenicsx.pipeline import MeshStage, mesh_report, meshed_body
 from gcms_fenicsx.progress import Progress, progress_printer
 from gcms_fenicsx.reduce import reduce_body
 from gcms_fenicsx.reduced_model import ReducedModel, write_reduced
@@ -53,8 +53,7 @@ def mesh(config: Path | None, out: Path) -> str:
     cfg = load_config(config)
     comm = MPI.COMM_WORLD
     with staged_output(out, comm) as folder:
-        stage = mesh_stage(cfg, folder, progress_printer(comm.rank), comm)
-        body = read_mesh(stage.msh_path, stage.info.groups, comm)
+        stage, body = meshed_body(cfg, folder, progress_printer(comm.rank), comm)
         Ms, nodes = fe.assemble_scalar_mass(body.mesh)
         report = _write_mesh_json(cfg, folder, stage, Ms, nodes, 1.0, comm)
     return _mesh_summary(report)
@@ -73,8 +72,7 @@ def _modes_files(cfg: StudyConfig, folder: Path, progress: Progress, comm: MPI.C
                  mode_shapes: bool = True) -> _ModesResult:
     """Mesh, assembly and the verified eigen-solve; writes the mesh files, modes.json and, if
     asked, mode_shapes/ (ParaView)."""
-    stage = mesh_stage(cfg, folder, progress, comm)
-    body = read_mesh(stage.msh_path, stage.info.groups, comm)
+    stage, body = meshed_body(cfg, folder, progress, comm)
     t0 = time.perf_counter()
     model = fe.assemble(body.mesh, cfg.material)
     timings = {"geometry_and_mesh": stage.wall_time_s, "assembly": time.perf_counter() - t0}

@@ -15,8 +15,9 @@ from mpi4py import MPI
 from geometry import MeshInfo, build_msh
 
 from gcms_fenicsx.config import StudyConfig
+from gcms_fenicsx.mesh import BodyMesh, read_mesh
 from gcms_fenicsx.outputs import on_rank0
-from gcms_fenicsx.progress import Progress
+from gcms_fenicsx.progress import Progress, quiet
 
 
 @dataclass(frozen=True)
@@ -43,6 +44,14 @@ def mesh_stage(cfg: StudyConfig, folder: Path, progress: Progress,
     if cfg.scene is not None:
         cfg.scene.check_groups(name for name, (dim, _) in info.groups.items() if dim == 2)
     return MeshStage(msh_path=path, info=info, wall_time_s=time.perf_counter() - t0)
+
+
+
+def meshed_body(cfg: StudyConfig, folder: Path, progress: Progress = quiet,
+                comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[MeshStage, BodyMesh]:
+    """:func:`mesh_stage`, then the body as a distributed dolfinx mesh with its physical groups."""
+    stage = mesh_stage(cfg, folder, progress, comm)
+    return stage, read_mesh(stage.msh_path, stage.info.groups, comm)
 
 
 def mesh_report(cfg: StudyConfig, stage: MeshStage, fe_mass: dict, volume_time_s: float) -> dict:

@@ -24,10 +24,9 @@ from gcms_fenicsx.dynamics.corotated import elastic_state
 from gcms_fenicsx.dynamics.rotation import rotation_about
 from gcms_fenicsx.dynamics.simulate import simulate_body
 from gcms_fenicsx.full_order import full_order_body, sparse_factorization, svk_elastic
-from gcms_fenicsx.mesh import read_mesh
 from gcms_fenicsx.node_groups import group_weights
+from gcms_fenicsx.pipeline import meshed_body
 from gcms_fenicsx.reduce import reduce_body
-from geometry import build_msh
 
 logging.disable(logging.INFO)
 
@@ -36,9 +35,7 @@ logging.disable(logging.INFO)
 def case(tmp_path_factory):
     """The pendulum's mesh, FE model, 20 free-free modes, full-order body and rigid pendulum."""
     cfg = parse_config(dict(pendulum.STUDY, modes={"count": 20}))
-    path = tmp_path_factory.mktemp("pendulum") / "pendulum.msh"
-    info = build_msh(cfg.geometry, cfg.mesh, path)
-    body_mesh = read_mesh(path, info.groups)
+    _, body_mesh = meshed_body(cfg, tmp_path_factory.mktemp("pendulum"))
     model = fe.assemble(body_mesh.mesh, cfg.material)
     modes = eigen.solve_free_free(model, cfg.modes)
     full = full_order_body(model, group_weights(body_mesh, model.Vs))

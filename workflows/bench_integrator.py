@@ -47,18 +47,15 @@ def log(message: str) -> None:
 def bodies():
     """(material, Nm, selection, body or failure message) for every case, one mesh and one
     solve per material."""
-    from geometry import build_msh
-
     from gcms_fenicsx import eigen, fe, pendulum
     from gcms_fenicsx.config import parse_config
     from gcms_fenicsx.dynamics.body import body_from_reduced
-    from gcms_fenicsx.mesh import read_mesh
+    from gcms_fenicsx.pipeline import meshed_body
     from gcms_fenicsx.reduce import ReductionError, reduce_body
 
     cfg = parse_config(dict(pendulum.STUDY, modes={"count": max(MODE_COUNTS)}))
     with tempfile.TemporaryDirectory() as tmp:
-        info = build_msh(cfg.geometry, cfg.mesh, Path(tmp) / "pendulum.msh")
-        body_mesh = read_mesh(Path(tmp) / "pendulum.msh", info.groups)
+        _, body_mesh = meshed_body(cfg, Path(tmp))
     none = {"cosine_tolerance": 0.0, "svd_tolerance": 0.0, "orthonormalize": False}
     for material, E in MATERIALS_E_PA.items():
         table_m = dict(pendulum.STUDY, material=dict(pendulum.STUDY["material"], E=E))

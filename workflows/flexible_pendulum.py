@@ -57,18 +57,15 @@ def log(message: str) -> None:
 
 def setup(quick: bool):
     """Mesh, assembly, the free-free modes (largest Nm), node groups: everything shared."""
-    from geometry import build_msh
-
     from gcms_fenicsx import eigen, fe, pendulum
     from gcms_fenicsx.config import parse_config
-    from gcms_fenicsx.mesh import read_mesh
     from gcms_fenicsx.node_groups import group_weights
+    from gcms_fenicsx.pipeline import meshed_body
 
     study = dict(pendulum.STUDY, modes={"count": max(MODE_COUNTS)})
     cfg = parse_config(study, "flexible pendulum")
     with tempfile.TemporaryDirectory() as tmp:
-        info = build_msh(cfg.geometry, cfg.mesh, Path(tmp) / "pendulum.msh")
-        body_mesh = read_mesh(Path(tmp) / "pendulum.msh", info.groups)
+        _, body_mesh = meshed_body(cfg, Path(tmp))
     t0 = time.perf_counter()
     model = fe.assemble(body_mesh.mesh, cfg.material)
     modes = eigen.solve_free_free(model, cfg.modes)

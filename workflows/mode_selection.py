@@ -62,16 +62,14 @@ def studies(quick: bool) -> dict[str, dict]:
 def run_case(name: str, table: dict, folder: Path) -> dict:
     from gcms_fenicsx import basis, eigen, fe, selection
     from gcms_fenicsx.config import parse_config
-    from gcms_fenicsx.mesh import read_mesh
+    from gcms_fenicsx.pipeline import meshed_body
     from gcms_fenicsx.reduce import ReductionError, reduce_body
-    from geometry import build_msh
 
     cfg = parse_config(table, name)
-    info = build_msh(cfg.geometry, cfg.mesh, folder / f"{name}.msh")
-    body = read_mesh(folder / f"{name}.msh", info.groups)
+    stage, body = meshed_body(cfg, folder)
     model = fe.assemble(body.mesh, cfg.material)
     all_modes = eigen.solve_free_free(model, cfg.modes)
-    stats = {"nodes": info.nodes, "cells": info.cells, "ndofs": model.ndofs}
+    stats = {"nodes": stage.info.nodes, "cells": stage.info.cells, "ndofs": model.ndofs}
     out = {"case": name, "ndofs": model.ndofs, "eigensolve_s": all_modes.timings_s["eigensolve"],
            "frequencies_hz": all_modes.elastic_frequencies_hz.tolist(), "by_modes": {},
            "sweep": []}
