@@ -28,6 +28,8 @@ import numpy as np
 from gcms_fenicsx.dynamics.body import Body
 from gcms_fenicsx.dynamics.rotation import Polar, axial, polar, skew
 
+E_CROSS = skew(np.eye(3))  # [e_k]× for k = x, y, z, stacked (3, 3, 3)
+
 
 class ElasticState(NamedTuple):
     """Everything one evaluation of the co-rotated energy computed at q."""
@@ -98,26 +100,25 @@ def frame_update(body: Body, s: ElasticState,
     H, R, S_inv, local, P, b = (body.affine, s.rotation, s.rate_inv, s.local, s.local_force,
                                 s.frame_term)
     U = s.frame.stretch
-    E = np.eye(3)
     h_x_r = np.cross(H[:, None, :], R[None, :, :])                  # h_f × r_l  (nf, 3, 3)
     W_omega = (h_x_r.reshape(-1, 3) @ S_inv.T).T                   # (3, n)
     omega = W_omega.T.reshape(nf, 3, 3)
-    rot_local = np.stack([local @ skew(E[k]) for k in range(3)])  # Q_loc [e_k]×  (3, nf, 3)
+    rot_local = local @ E_CROSS                                    # Q_loc [e_k]×  (3, nf, 3)
     C_hat = without_translation(body, rot_local).reshape(3, -1).T  # (n, 3)
     AC = np.asarray(apply_A(C_hat))
     B = translation_free_force(body, AC.T.reshape(3, nf, 3))       # Πᵀ A Ĉ  (3, nf, 3)
     TB = (B @ R.T).reshape(3, -1).T                                 # (n, 3)
     CAC = C_hat.T @ AC
     Y_lp = local.T @ P
-    M_Y = np.stack([axial(skew(E[k]) @ Y_lp) for k in range(3)], axis=1)   # w([ω]× Y) = M_Y ω
+    M_Y = axial(E_CROSS @ Y_lp).T                                  # w([ω]× Y) = M_Y ω
     hr = H @ R.T                                                    # h_f · r_l  (nf, 3)
     db = (np.cross(P[:, None, :], R[None, :, :]) - omega @ M_Y.T
           - hr[:, :, None] * b + R[None, :, :] * (H @ b)[:, None, None]
           - np.cross(omega, U @ b))
     W_b = (db.reshape(-1, 3) @ S_inv.T).T                           # (3, n)
     frame = P - H @ skew(b)
-    U2 = np.stack([-(H @ skew(E[k]) @ R.T).ravel() for k in range(3)], axis=1)
-    U3 = np.stack([-(frame @ skew(E[k]) @ R.T).ravel() for k in range(3)], axis=1)
+    U2 = -(H @ E_CROSS @ R.T).reshape(3, -1).T
+    U3 = -(frame @ E_CROSS @ R.T).reshape(3, -1).T
     X = np.hstack([TB + U3, W_omega.T, U2])
     Y = np.vstack([W_omega, TB.T + CAC @ W_omega, W_b])
     return X, Y
