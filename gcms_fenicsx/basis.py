@@ -104,9 +104,12 @@ def reduced_stiffness(model: FEModel, fields: np.ndarray) -> np.ndarray:
     """
     K = model.K
     indptr, indices, values = K.getValuesCSR()  # this rank's rows; global column numbers
-    if np.any(indptr % 3):
-        raise ValueError("K is not stored in 3×3 node blocks: not a blocked vector space")
     n, nf = fields.shape
+    lengths = np.diff(indptr)
+    if (len(lengths) != 3 * n or np.any(lengths % 3)
+            or np.any(lengths.reshape(n, 3) != lengths[::3, None])):
+        raise ValueError(f"K ({len(lengths)} rows here) is not stored in 3×3 node blocks of "
+                         f"the {n} nodes of F: not the stiffness of a blocked vector space")
     columns, F = _column_fields(K, fields, indices[::3] // 3)
     first = indptr[:-1:3] // 3  # where node i's rows start among the entries of an A_l
     neighbours = indptr[1::3] // 3 - first  # stored neighbours of node i (each of its rows)
@@ -116,7 +119,7 @@ def reduced_stiffness(model: FEModel, fields: np.ndarray) -> np.ndarray:
         if l < 2:  # node i's first l + 1 rows: entries first[i] .. first[i] + taken[i]
             taken = (l + 1) * neighbours
             ends = np.cumsum(taken, dtype=indptr.dtype)
-            pick = (np.arange(ends[-1], dtype=indptr.dtype)
+            pick = (np.arange(taken.sum(), dtype=indptr.dtype)
                     + np.repeat(first - (ends - taken), taken))
             data, cols = np.take(values[l::3], pick), np.take(columns, pick)
         else:  # all three rows: the stored order itself
