@@ -106,11 +106,15 @@ def reduced_stiffness(model: FEModel, fields: np.ndarray) -> np.ndarray:
     indptr, indices, values = K.getValuesCSR()  # this rank's rows; global column numbers
     n, nf = fields.shape
     lengths = np.diff(indptr)
-    if (len(lengths) != 3 * n or np.any(lengths % 3)
-            or np.any(lengths.reshape(n, 3) != lengths[::3, None])):
-        raise ValueError(f"K ({len(lengths)} rows here) is not stored in 3×3 node blocks of "
-                         f"the {n} nodes of F: not the stiffness of a blocked vector space")
-    columns, F = _column_fields(K, fields, indices[::3] // 3)
+    nodes, direction = np.divmod(indices[::3], 3)  # each stored triple: (node j, direction 0)?
+    blocked = (len(lengths) == 3 * n and not np.any(lengths % 3)
+               and not np.any(lengths.reshape(n, 3) != lengths[::3, None])
+               and not np.any(direction))
+    if not model.comm.allreduce(bool(blocked), op=MPI.LAND):  # every rank raises, none waits
+        raise ValueError(f"K ({len(lengths)} rows on rank {model.comm.rank}) is not stored in "
+                         f"3×3 node blocks of the {n} nodes of F there: not the stiffness of "
+                         "a blocked vector space")
+    columns, F = _column_fields(K, fields, nodes)
     first = indptr[:-1:3] // 3  # where node i's rows start among the entries of an A_l
     neighbours = indptr[1::3] // 3 - first  # stored neighbours of node i (each of its rows)
     local = np.empty((nf, 3, nf, 3))

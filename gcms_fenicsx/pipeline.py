@@ -46,7 +46,6 @@ def mesh_stage(cfg: StudyConfig, folder: Path, progress: Progress,
     return MeshStage(msh_path=path, info=info, wall_time_s=time.perf_counter() - t0)
 
 
-
 def meshed_body(cfg: StudyConfig, folder: Path, progress: Progress = quiet,
                 comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[MeshStage, BodyMesh]:
     """:func:`mesh_stage`, then the body as a distributed dolfinx mesh with its physical groups."""

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 from mpi4py import MPI
+from petsc4py import PETSc
 from dolfinx.mesh import CellType, create_box
 
 from symmetric_mesh import symmetric_box
@@ -46,13 +47,27 @@ def test_reduced_mass_is_the_kronecker_gram(square):
                                atol=1e-10 * np.abs(Kr).max())
 
 
-def test_reduced_stiffness_needs_a_blocked_stiffness(square):
-    """Kr reads K's 3×3 node blocks; a scalar matrix in its place is refused, not misread."""
+def _cyclic_tridiagonal(size: int) -> PETSc.Mat:
+    """Rows of three entries, (r − 1, r, r + 1) mod size: lengths like K's, no node triples."""
+    rows = np.arange(size)
+    cols = np.sort(np.stack([(rows - 1) % size, rows, (rows + 1) % size], axis=1), axis=1)
+    A = PETSc.Mat().createAIJ((size, size), csr=(np.arange(0, 3 * size + 1, 3, dtype=np.int32),
+                                                 cols.ravel().astype(np.int32),
+                                                 np.ones(3 * size)), comm=PETSc.COMM_SELF)
+    A.assemble()
+    return A
+
+
+@pytest.mark.parametrize("stand_in", ["scalar mass", "tridiagonal"])
+def test_reduced_stiffness_needs_a_blocked_stiffness(square, stand_in):
+    """Kr reads K's 3×3 node blocks; a matrix in K's place without them is refused, not
+    misread: Ms (a third of the rows) or rows of three entries that are not node triples."""
     from dataclasses import replace
 
     model, _, B = square
+    K = model.Ms if stand_in == "scalar mass" else _cyclic_tridiagonal(model.ndofs)
     with pytest.raises(ValueError, match="3×3 node blocks"):
-        basis.reduced_stiffness(replace(model, K=model.Ms), B.fields)
+        basis.reduced_stiffness(replace(model, K=K), B.fields)
 
 
 def test_column_order_is_the_references(square):
