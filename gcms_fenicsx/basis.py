@@ -101,6 +101,7 @@ def reduced_stiffness(model: FEModel, fields: np.ndarray) -> np.ndarray:
     are stored one after another. Each sparse product has one column per field, and the
     three read two thirds of K's stored entries.
     Columns owned by other ranks take their rows of F from there (:func:`rows_at`).
+    Memory: a copy of this rank's rows of K (values and column numbers) while Kr is formed.
     """
     K = model.K
     indptr, indices, values = K.getValuesCSR()  # this rank's rows; global column numbers

@@ -33,8 +33,6 @@ import tempfile
 from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
-
 MODE_COUNTS = (5, 10, 20, 50)
 MATERIALS_E_PA = {"soft": 1.0e8, "stiff": 3.0e9}
 BASELINE_TIME_S = 0.1   # the assembled baseline is slow: its rate is measured on 100 steps
