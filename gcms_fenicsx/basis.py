@@ -117,7 +117,7 @@ def reduced_stiffness(model: FEModel, fields: np.ndarray) -> np.ndarray:
                          "a blocked vector space")
     columns, F = _column_fields(K, fields, nodes)
     first = indptr[:-1:3] // 3  # where node i's rows start among the entries of an A_l
-    neighbours = indptr[1::3] // 3 - first  # stored neighbours of node i (each of its rows)
+    neighbours = lengths[::3] // 3  # stored neighbours of node i (each of its rows)
     local = np.empty((nf, 3, nf, 3))
     for l in range(3):
         row_lengths = np.repeat(neighbours, l + 1)  # rows (i, k) for k ≤ l, node-major

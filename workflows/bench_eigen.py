@@ -55,26 +55,21 @@ def worker(body: str, order: int, size: float, scipy_max: int) -> dict:
 
     from gcms_fenicsx import eigen, fe
     from gcms_fenicsx.config import parse_config
+    from gcms_fenicsx.pipeline import meshed_body
     from gcms_fenicsx.reduce import reduce_body
-    from gcms_fenicsx.material import Material
-    from gcms_fenicsx.mesh import read_mesh
-    from gcms_fenicsx.modes_config import ModesConfig
-    from geometry import build_msh, parse_geometry, parse_mesh
 
     logging.disable(logging.INFO)
     comm = MPI.COMM_WORLD
-    geom = parse_geometry(BODIES[body])
-    folder = comm.bcast(tempfile.mkdtemp() if comm.rank == 0 else None)
-    path = Path(folder) / "mesh.msh"
-    info = build_msh(geom, parse_mesh({"size": size, "order": order}, geom), path) \
-        if comm.rank == 0 else None
-    info = comm.bcast(info)
-    body_mesh = read_mesh(path, info.groups, comm)
-    mesh = body_mesh.mesh
+    cfg = parse_config({"geometry": BODIES[body], "mesh": {"size": size, "order": order},
+                        "modes": {"count": COUNT}})
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(comm.bcast(tmp if comm.rank == 0 else None))  # rank 0's, for every rank
+        _, body_mesh = meshed_body(cfg, folder, comm=comm)
+        comm.barrier()  # every rank has read the mesh before rank 0 removes the folder
     t0 = time.perf_counter()
-    model = fe.assemble(mesh, Material())
+    model = fe.assemble(body_mesh.mesh, cfg.material)
     assembly = time.perf_counter() - t0
-    modes = eigen.solve_free_free(model, ModesConfig(count=COUNT))
+    modes = eigen.solve_free_free(model, cfg.modes)
     t0 = time.perf_counter()
     eigen.inertia_below(model, modes.shift)
     factorization = time.perf_counter() - t0
@@ -84,7 +79,6 @@ def worker(body: str, order: int, size: float, scipy_max: int) -> dict:
            "shift": modes.shift, "frequencies_hz": modes.elastic_frequencies_hz.tolist(),
            "solver_timings_s": modes.timings_s}
     if comm.size == 1 and order == 2:  # what ``gcms reduce`` adds: default selection, Mr, Kr
-        cfg = parse_config({"geometry": BODIES[body], "mesh": {"size": size, "order": order}})
         _, report = reduce_body(model, modes, body_mesh, cfg, {})
         out["selection_and_reduction_s"] = report["timings_s"]["selection_and_reduction"]
     if comm.size == 1 and model.ndofs <= scipy_max:
