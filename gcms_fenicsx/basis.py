@@ -18,10 +18,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse
 from mpi4py import MPI
-from petsc4py import PETSc
 
 from gcms_fenicsx.eigen import Modes
-from gcms_fenicsx.fe import FEModel, gram, mat_dense, rows_at
+from gcms_fenicsx.fe import FEModel, column_rows, gram, mat_dense
 
 RIGID_FIELDS = ("1", "X", "Y", "Z")
 AXES = "xyz"
@@ -100,7 +99,7 @@ def reduced_stiffness(model: FEModel, fields: np.ndarray) -> np.ndarray:
     only the rows k ≤ l are multiplied: the first l + 1 of each node's three rows, which
     are stored one after another. Each sparse product has one column per field, and the
     three read two thirds of K's stored entries.
-    Columns owned by other ranks take their rows of F from there (:func:`rows_at`).
+    Columns owned by other ranks take their rows of F from there (``fe.column_rows``).
     Memory: a copy of this rank's rows of K (values and column numbers) while Kr is formed.
     """
     K = model.K
@@ -115,7 +114,7 @@ def reduced_stiffness(model: FEModel, fields: np.ndarray) -> np.ndarray:
         raise ValueError(f"K ({len(lengths)} rows on rank {model.comm.rank}) is not stored in "
                          f"3×3 node blocks of the {n} nodes of F there: not the stiffness of "
                          "a blocked vector space")
-    columns, F = _column_fields(K, fields, nodes)
+    columns, F = column_rows(K.getComm(), fields, K.getOwnershipRange()[0] // 3, nodes)
     first = indptr[:-1:3] // 3  # where node i's rows start among the entries of an A_l
     neighbours = lengths[::3] // 3  # stored neighbours of node i (each of its rows)
     local = np.empty((nf, 3, nf, 3))
@@ -137,21 +136,6 @@ def reduced_stiffness(model: FEModel, fields: np.ndarray) -> np.ndarray:
         for k in range(l):
             local[:, l, :, k] = local[:, k, :, l].T
     return symmetric(model.comm.allreduce(local.reshape(3 * nf, 3 * nf), op=MPI.SUM))
-
-
-def _column_fields(K: PETSc.Mat, fields: np.ndarray,
-                   nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rows of F for K's column nodes: local column numbers into [owned F; fetched rows]."""
-    n = fields.shape[0]
-    first = K.getOwnershipRange()[0] // 3
-    columns = nodes - first
-    remote = (columns < 0) | (columns >= n)
-    others, position = np.unique(nodes[remote], return_inverse=True)
-    fetched = rows_at(K.getComm(), fields, others)  # collective: every rank calls it
-    if not len(others):
-        return columns, fields
-    columns[remote] = n + position
-    return columns, np.vstack([fields, fetched])
 
 
 def symmetric(A: np.ndarray) -> np.ndarray:

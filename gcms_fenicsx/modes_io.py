@@ -11,7 +11,7 @@ from pathlib import Path
 from dolfinx import fem, io
 
 from gcms_fenicsx.eigen import Modes
-from gcms_fenicsx.fe import FEModel, kron_mass_defect
+from gcms_fenicsx.fe import FEModel
 
 
 def write_mode_shapes(model: FEModel, modes: Modes, path: Path) -> None:
@@ -39,13 +39,16 @@ def modes_report(model: FEModel, modes: Modes, timings_s: dict[str, float]) -> d
         "eigenvalues_rad2_s2": modes.eigenvalues.tolist(),
         "max_relative_residual": float(modes.relative_residuals.max()),
         "relative_residuals": modes.relative_residuals.tolist(),
+        "max_backward_error": float(modes.verification.backward_errors.max()),
         "m_orthonormality_error": modes.orthonormality_error,
         "rigid_fractions": modes.rigid_fractions.tolist(),
         "missed_eigenvalues": modes.missed_eigenvalues,
         "sylvester_count": modes.inertia_count,
         "repeated_eigenvalues": modes.clusters(),
         "shift": modes.shift,
-        "mass_kron_defect": kron_mass_defect(model),
+        "mass_kron_defect": modes.verification.mass_kron_defect,
+        "verification": modes.verification.to_json(),
+        "warnings": list(modes.warnings),
         "timings_s": {**timings_s, **modes.timings_s},
     }
 
