@@ -13,11 +13,14 @@ Coordinates: q is Q read row by row, Q holding one 3-vector per field (DESIGN §
 is at x_i = Σ_f F[i, f] Q[f, :] and a node group's mean position is Σ_i w_i x_i; both are
 linear in q.
 
-File layout (schema 1): root attributes ``schema_version`` (int), ``input_hash`` (str) and
+File layout (schema 2): root attributes ``schema_version`` (int), ``input_hash`` (str) and
 ``units``, ``field_names``, ``selection``, ``tolerances``, ``material``, ``mesh`` (JSON
 strings); datasets ``/mass``, ``/stiffness``, ``/gravity``, ``/fields``, ``/nodes_m``,
 ``/frequencies_hz``, ``/reduced_frequencies_hz``; and ``/groups/<name>/nodes`` (int64),
-``/groups/<name>/weights`` for every node group.
+``/groups/<name>/weights`` for every node group. Every dataset carries the SHA-256 of its
+contents and the root the SHA-256 of its attributes (``versioned_file.seal``); the reader
+verifies them, so a matrix changed on disk is refused even when it still looks valid.
+Schema 1 (before checksums) is still read; :attr:`ReducedModel.checksummed` tells.
 """
 from __future__ import annotations
 
@@ -29,10 +32,12 @@ from typing import Any, NoReturn
 import h5py
 import numpy as np
 
-from gcms_fenicsx.outputs import atomic_file
-from gcms_fenicsx.versioned_file import open_versioned
+from gcms_fenicsx.outputs import atomic_file, json_text
+from gcms_fenicsx.versioned_file import open_versioned, seal
 
-SCHEMA_VERSION: int = 1
+SCHEMA_VERSION: int = 2
+#: The first schema whose files carry content checksums.
+CHECKSUMS_SINCE: int = 2
 
 _ARRAYS = ("mass", "stiffness", "gravity", "fields", "nodes_m", "frequencies_hz",
            "reduced_frequencies_hz")
@@ -98,6 +103,11 @@ class ReducedModel:
     def dofs(self) -> int:
         """Number of generalized coordinates n = 3·len(field_names)."""
         return self.mass.shape[0]
+
+    @property
+    def checksummed(self) -> bool:
+        """Whether the file it was read from carried content checksums (schema ≥ 2)."""
+        return self.schema_version >= CHECKSUMS_SINCE
 
     def group(self, name: str) -> NodeGroup:
         """The node group ``name``; ReducedModelError listing the known groups if there is none."""
@@ -221,7 +231,7 @@ def _json_attributes(model: ReducedModel) -> dict[str, str]:
     for name in _JSON_ATTRS:
         value = getattr(model, name)
         try:
-            out[name] = json.dumps(list(value) if name == "field_names" else value)
+            out[name] = json_text(list(value) if name == "field_names" else value)
         except (TypeError, ValueError) as exc:
             raise ReducedModelError(f"reduced model: {name} is not JSON-serializable: "
                                     f"{exc}") from exc
@@ -248,13 +258,14 @@ def write_reduced(path: str | Path, model: ReducedModel) -> None:
         for name, g in model.groups.items():
             groups.create_dataset(f"{name}/nodes", data=g.nodes.astype(np.int64))
             groups.create_dataset(f"{name}/weights", data=g.weights.astype(np.float64))
+        seal(f)
 
 
 def read_reduced(path: str | Path) -> ReducedModel:
     """Read and validate a reduced-model file; ReducedModelError names the path and the problem."""
     path = Path(path)
-    with open_versioned(path, ReducedModelError, "reduced model", "schema",
-                        SCHEMA_VERSION) as (f, version):
+    with open_versioned(path, ReducedModelError, "reduced model", "schema", SCHEMA_VERSION,
+                        checksums_since=CHECKSUMS_SINCE) as (f, version):
         model = _read_open(f, version, str(path))
     validate_model(model, str(path))
     return model

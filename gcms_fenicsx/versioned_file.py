@@ -1,13 +1,23 @@
-"""Opening a versioned gcms-fenicsx HDF5 file for reading: the checks every reader starts with.
+"""Versioned gcms-fenicsx HDF5 files: the checks every reader starts with, and content checksums.
 
 A reader names its error class, what the file should be and the newest schema it
 understands. It gets the open file and its schema version. A missing file, a file that is
 not HDF5 (or is truncated), a missing, non-integer or newer ``schema_version``, and any h5py
 or decoding error while the reader works inside the block all end as that error class,
-with the path first. NumPy and h5py only: the standalone integrator reads through it.
+with the path first.
+
+Content checksums: a writer calls :func:`seal` on the finished file. Every dataset then
+carries the SHA-256 of its contents (``sha256`` attribute; :func:`dataset_digest` says what
+is hashed) and the root carries the SHA-256 of its other attributes
+(``attributes_sha256``). From ``checksums_since`` on, :func:`open_versioned` verifies all of
+them before the reader sees the file, so a changed or damaged value — one flipped bit in a
+matrix that still looks valid — is an error naming the dataset, not silently read.
+NumPy and h5py only: the standalone integrator reads through it.
 """
 from __future__ import annotations
 
+import hashlib
+import json
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -17,13 +27,115 @@ import numpy as np
 
 #: What h5py and the decoding of its contents raise for a damaged file.
 H5PY_ERRORS = (OSError, KeyError, RuntimeError, ValueError, TypeError)
+#: Attribute holding a dataset's checksum, and the root's checksum of its other attributes.
+DATASET_CHECKSUM = "sha256"
+ATTRIBUTES_CHECKSUM = "attributes_sha256"
+
+
+class DigestBuilder:
+    """SHA-256 of an array fed in row blocks: its bytes (C order) then its dtype and shape.
+
+    Appending rows in order gives the digest of the whole array, so a writer that streams a
+    series to disk can checksum it without reading it back.
+    """
+
+    def __init__(self) -> None:
+        self._hash = hashlib.sha256()
+
+    def update(self, rows: np.ndarray) -> None:
+        self._hash.update(np.ascontiguousarray(rows).tobytes())
+
+    def hexdigest(self, dtype: np.dtype, shape: tuple[int, ...]) -> str:
+        final = self._hash.copy()
+        final.update(f"|{np.dtype(dtype).str}|{tuple(int(n) for n in shape)}".encode())
+        return final.hexdigest()
+
+
+def dataset_digest(data: np.ndarray) -> str:
+    """SHA-256 of an array's bytes in C order, followed by its dtype and shape."""
+    data = np.asarray(data)
+    builder = DigestBuilder()
+    builder.update(data)
+    return builder.hexdigest(data.dtype, data.shape)
+
+
+def attributes_digest(attrs: h5py.AttributeManager) -> str:
+    """SHA-256 of a group's attributes (names and values), its own checksum left out."""
+    items = {name: _plain(attrs[name]) for name in sorted(attrs) if name != ATTRIBUTES_CHECKSUM}
+    return hashlib.sha256(json.dumps(items, sort_keys=True).encode()).hexdigest()
+
+
+def _plain(value) -> object:
+    if isinstance(value, bytes):
+        return value.decode("utf-8", "replace")
+    if isinstance(value, np.ndarray):
+        return {"dtype": value.dtype.str, "values": value.tolist()}
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+#: Bytes of a dataset read at once while its checksum is verified.
+VERIFY_BLOCK_BYTES = 1 << 24
+
+
+def stored_digest(ds: h5py.Dataset) -> str:
+    """:func:`dataset_digest` of a dataset on disk, read in blocks of rows (bounded memory)."""
+    if ds.ndim == 0 or ds.shape[0] == 0:
+        return dataset_digest(ds[()])
+    row_bytes = max(1, ds.dtype.itemsize * int(np.prod(ds.shape[1:])))
+    rows = max(1, VERIFY_BLOCK_BYTES // row_bytes)
+    builder = DigestBuilder()
+    for start in range(0, ds.shape[0], rows):
+        builder.update(ds[start:start + rows])
+    return builder.hexdigest(ds.dtype, ds.shape)
+
+
+def _datasets(f: h5py.File) -> list[h5py.Dataset]:
+    found: list[h5py.Dataset] = []
+    f.visititems(lambda _, obj: found.append(obj) if isinstance(obj, h5py.Dataset) else None)
+    return found
+
+
+def seal(f: h5py.File, digests: dict[str, str] | None = None) -> None:
+    """Write the checksum of every dataset of the open file ``f`` and of its root attributes.
+
+    ``digests`` maps dataset paths to checksums a streaming writer computed on the way
+    (:class:`DigestBuilder`); the other datasets are read back and hashed here.
+    """
+    digests = digests or {}
+    for ds in _datasets(f):
+        ds.attrs[DATASET_CHECKSUM] = digests.get(ds.name) or stored_digest(ds)
+    f.attrs[ATTRIBUTES_CHECKSUM] = attributes_digest(f.attrs)
+
+
+def verify(f: h5py.File, error: type[Exception], where: str) -> None:
+    """Raise ``error`` naming the first dataset (or the root attributes) whose content does not
+    match the checksum written with it, or that has none."""
+    damaged = "changed or damaged after it was written"
+    if f.attrs.get(ATTRIBUTES_CHECKSUM) != attributes_digest(f.attrs):
+        raise error(f"{where}: the root attributes do not match their checksum: the file was "
+                    f"{damaged}" if ATTRIBUTES_CHECKSUM in f.attrs
+                    else f"{where}: no content checksum ({ATTRIBUTES_CHECKSUM}): the file was "
+                         "not written (or not finished) by gcms-fenicsx")
+    for ds in _datasets(f):
+        stored = ds.attrs.get(DATASET_CHECKSUM)
+        if stored is None:
+            raise error(f"{where}: dataset {ds.name} has no content checksum: the file was "
+                        f"{damaged}")
+        if stored != stored_digest(ds):
+            raise error(f"{where}: dataset {ds.name} does not match its checksum: the file was "
+                        f"{damaged}")
 
 
 @contextmanager
-def open_versioned(path: Path, error: type[Exception], kind: str, schema: str,
-                   newest: int) -> Iterator[tuple[h5py.File, int]]:
+def open_versioned(path: Path, error: type[Exception], kind: str, schema: str, newest: int,
+                   checksums_since: int | None = None) -> Iterator[tuple[h5py.File, int]]:
     """``(file, schema_version)`` of the ``kind`` file at ``path`` (e.g. "reduced model"),
-    whose versions are called ``schema`` in messages; ``error`` for anything wrong."""
+    whose versions are called ``schema`` in messages; ``error`` for anything wrong.
+
+    Files of schema ``checksums_since`` or newer have their checksums verified first.
+    """
     where = str(path)
     if not path.is_file():
         raise error(f"{where}: " + ("not a file" if path.exists() else "no such file"))
@@ -34,7 +146,10 @@ def open_versioned(path: Path, error: type[Exception], kind: str, schema: str,
                     f"{exc}") from exc
     with f:
         try:
-            yield f, _schema_version(f, error, where, kind, schema, newest)
+            version = _schema_version(f, error, where, kind, schema, newest)
+            if checksums_since is not None and version >= checksums_since:
+                verify(f, error, where)
+            yield f, version
         except error:
             raise
         except H5PY_ERRORS as exc:

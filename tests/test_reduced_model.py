@@ -15,6 +15,7 @@ import pytest
 
 from conftest import REPO
 from gcms_fenicsx import reduced_model as rm
+from gcms_fenicsx.versioned_file import seal
 
 ARRAYS = ("mass", "stiffness", "gravity", "fields", "nodes_m", "frequencies_hz",
           "reduced_frequencies_hz")
@@ -51,10 +52,29 @@ def written(model, tmp_path) -> Path:
     return path
 
 
-def damaged(path: Path, edit: Callable[[h5py.File], None]) -> Path:
+def damaged(path: Path, edit: Callable[[h5py.File], None], resealed: bool = True) -> Path:
+    """``path`` after ``edit``; ``resealed``: with checksums that fit the edited content (a file
+    written wrong, which the content checks must catch), else the checksums of before."""
     with h5py.File(path, "r+") as f:
         edit(f)
+        if resealed:
+            seal(f)
     return path
+
+
+def scale_entry(f: h5py.File, name: str, index: tuple[int, ...], factor: float) -> None:
+    data = f[name][()]
+    data[index] *= factor
+    f[name][...] = data
+
+
+def flip_bit(name: str, index: tuple[int, ...], bit: int = 0) -> Callable[[h5py.File], None]:
+    """Flip one bit of one float64 of dataset ``name`` in place."""
+    def edit(f: h5py.File) -> None:
+        data = f[name][()]
+        data.view(np.uint64)[index] ^= np.uint64(1 << bit)
+        f[name][...] = data
+    return edit
 
 
 def replace_dataset(name: str, data) -> Callable[[h5py.File], None]:
@@ -118,6 +138,39 @@ def test_truncated_file(written):
     written.write_bytes(data[: len(data) // 2])
     with pytest.raises(rm.ReducedModelError, match=re.escape(str(written))):
         rm.read_reduced(written)
+
+
+@pytest.mark.parametrize("edit, where", [
+    (flip_bit("stiffness", (4, 4)), "dataset /stiffness"),             # still symmetric enough
+    (flip_bit("mass", (0, 0), bit=40), "dataset /mass"),
+    (lambda f: scale_entry(f, "mass", (0, 0), 1.0001), "dataset /mass"),  # still SPD
+    (replace_dataset("groups/bottom/weights", np.array([0.4, 0.3, 0.2, 0.1])),
+     "dataset /groups/bottom/weights"),
+    (lambda f: f.attrs.__setitem__("input_hash", "ef" * 32), "the root attributes"),
+    (lambda f: f["stiffness"].attrs.__delitem__("sha256"), "dataset /stiffness has no content"),
+])
+def test_content_changed_on_disk_is_refused(written, edit, where):
+    """A value changed after writing is refused even when the model it gives is valid: every
+    dataset and the root attributes carry a SHA-256 the reader checks."""
+    with pytest.raises(rm.ReducedModelError, match=f"{re.escape(str(written))}: {where}"):
+        rm.read_reduced(damaged(written, edit, resealed=False))
+
+
+def test_changed_but_valid_model_passes_validation(written):
+    """The edits above give models that validate_model alone accepts: the checksum is what
+    catches them."""
+    model = rm.read_reduced(damaged(written, lambda f: scale_entry(f, "mass", (0, 0), 1.0001)))
+    assert model.checksummed and model.schema_version == rm.SCHEMA_VERSION
+
+
+def test_schema_1_files_are_read_without_checksums(written):
+    def old(f):
+        f.attrs["schema_version"] = 1
+        for ds in ("mass", "stiffness"):
+            del f[ds].attrs["sha256"]
+        del f.attrs["attributes_sha256"]
+    model = rm.read_reduced(damaged(written, old, resealed=False))
+    assert not model.checksummed
 
 
 def test_newer_or_missing_schema(written):
