@@ -7,22 +7,27 @@ meshes it and writes a ``.msh`` file that ``dolfinx.io.gmshio`` reads, returning
 used, so reading a configuration stays light.
 
 Modules: ``shapes`` and ``polygon`` (plane shapes and polygon checks), ``sections`` (the
-beam sections), ``crank_layout`` (where a crankshaft's parts go), ``params`` (the config
-tables), ``groups`` (physical group names and tags), ``body`` (what a builder returns);
-with Gmsh: ``occ_shapes``, ``faces``, ``beam``, ``crankshaft`` and ``meshing``.
+beam sections), ``crank_layout`` (where a crankshaft's parts go), ``features`` (smallest
+features against the kernel and the mesh size), ``params`` (the config tables), ``groups``
+(physical group names and tags), ``body`` (what a builder returns), ``estimate`` (cells
+and nodes before meshing), ``element_order`` (the P1 stiffness warning); with Gmsh:
+``occ_shapes``, ``faces``, ``beam``, ``crankshaft`` and ``meshing``.
 """
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from geometry.element_order import element_order_warning
+from geometry.estimate import MeshEstimate, estimate_mesh
 from geometry.params import BeamParams, CrankshaftParams, MeshParams, parse_geometry, parse_mesh
 from geometry.sections import SECTIONS
 
 if TYPE_CHECKING:
     from geometry.meshing import MeshInfo, build_msh
 
-__all__ = ["BeamParams", "CrankshaftParams", "MeshInfo", "MeshParams", "SECTIONS", "build_msh",
-           "parse_geometry", "parse_mesh", "section_area"]
+__all__ = ["BeamParams", "CrankshaftParams", "MeshEstimate", "MeshInfo", "MeshParams", "SECTIONS",
+           "build_msh", "element_order_warning", "estimate_mesh", "parse_geometry", "parse_mesh",
+           "section_area"]
 
 
 def section_area(params: BeamParams) -> float:

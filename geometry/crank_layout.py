@@ -62,10 +62,16 @@ class CrankLayout:
     swing_radius: float  # the farthest any web or counterweight reaches from the axis
 
     @property
+    def width(self) -> float:
+        """The widest the body reaches across the axis: twice the swing radius or the
+        flange's diameter (an upper bound of its bounding box's edges along y and z)."""
+        flange = max((p.radius for p in self.parts if p.name == "flange"), default=0.0)
+        return max(2.0 * self.swing_radius, 2.0 * flange)
+
+    @property
     def largest_extent(self) -> float:
         """The largest edge of the body's bounding box."""
-        flange = max((p.radius for p in self.parts if p.name == "flange"), default=0.0)
-        return max(self.length, 2.0 * self.swing_radius, 2.0 * flange)
+        return max(self.length, self.width)
 
 
 def crank_layout(p: CrankshaftParams) -> CrankLayout:
@@ -118,3 +124,17 @@ def web_outline(p: CrankshaftParams, angle: float) -> tuple[Shape, ...]:
         shapes.append(Sector((p.stroke + p.web_width) / 2, opposite - COUNTERWEIGHT_HALF_ANGLE,
                              opposite + COUNTERWEIGHT_HALF_ANGLE))
     return tuple(shapes)
+
+
+def web_area_and_perimeter(p: CrankshaftParams) -> tuple[float, float]:
+    """The area and perimeter of a web's outline: a stadium of radius R = web_width/2 whose
+    centres are d = stroke/2 apart (πR² + 2Rd, 2πR + 2d), plus with counterweights the ring
+    sector between R and R + d over the sector's opening θ (θ/2 · ((R + d)² − R²); its
+    outline replaces an arc θR by θ(R + d) and two radial edges of length d)."""
+    radius, d = p.web_width / 2, p.stroke / 2
+    area, perimeter = math.pi * radius**2 + 2 * radius * d, 2 * math.pi * radius + 2 * d
+    if p.counterweights:
+        opening = 2 * COUNTERWEIGHT_HALF_ANGLE
+        area += opening / 2 * ((radius + d) ** 2 - radius**2)
+        perimeter += opening * d + 2 * d
+    return area, perimeter

@@ -10,7 +10,7 @@ from __future__ import annotations
 import gmsh
 
 from geometry import faces, groups
-from geometry.body import Body
+from geometry.body import Body, KernelFailure
 from geometry.crank_layout import CrankLayout, Web
 from geometry.occ_shapes import DimTags, add_face, extrude_along_x, to_section_plane
 from geometry.params import CrankshaftParams
@@ -28,7 +28,7 @@ def add_crankshaft(p: CrankshaftParams) -> Body:
     fused, _ = occ.fuse(solids[:1], solids[1:])
     occ.synchronize()
     if len(fused) != 1:
-        raise RuntimeError(f"crankshaft: fusion gave {len(fused)} solids instead of one")
+        raise KernelFailure(f"crankshaft: fusion gave {len(fused)} solids instead of one")
     volume = fused[0][1]
     return Body(volume, _surfaces(layout, volume))
 

@@ -4,8 +4,10 @@
 ``body`` and the named surfaces, see ``geometry.groups``), reads the kernel's mass
 properties, meshes in 3D (order 2: 10-node tetrahedra whose edge midpoints lie on the
 CAD, so round surfaces are curved), and writes MSH 4.1 with only the physical groups'
-elements, as ``dolfinx.io.gmshio.read_from_msh`` wants. The file appears atomically or
-not at all, and Gmsh is finalized on every path.
+elements, as ``dolfinx.io.gmshio.read_from_msh`` wants. The model is built in units of
+the power of ten nearest the body's size and the file written in metres, so the kernel's
+absolute tolerances scale with the body. A failure of the kernel is a ConfigError. The file
+appears atomically or not at all, and Gmsh is finalized on every path.
 """
 from __future__ import annotations
 
@@ -26,19 +28,16 @@ from gcms_fenicsx.validation import ConfigError
 
 from geometry import groups
 from geometry.beam import add_beam
-from geometry.body import Body
+from geometry.body import Body, KernelFailure
 from geometry.crankshaft import add_crankshaft
-from geometry.params import BeamParams, CrankshaftParams, Geometry, MeshParams, surface_groups
+from geometry.params import ELEMENTS_PER_CIRCLE, BeamParams, CrankshaftParams, Geometry, \
+    MeshParams, geometry_keys, largest_extent, model_unit, surface_groups
 
 SetOption = Callable[[str, float], None]  # gmsh.option.setNumber, undone after the session
 MODEL_NAME = "gcms_geometry"  # the model a session works in inside someone else's Gmsh
 
 #: Element type of Gmsh's 3D elements by order: 4-node and 10-node tetrahedra.
 TETRAHEDRON = {1: 4, 2: 11}
-#: Round surfaces get elements no longer than 1/16 of their circumference, whatever
-#: ``[mesh] size`` says: a circle section's volume is then within ~3e-5 at order 2
-#: (~2e-2 at order 1, faceted), where 2A/P alone would give six edges around.
-ELEMENTS_PER_CIRCLE = 16
 
 
 @dataclass(frozen=True)
@@ -50,7 +49,7 @@ class MeshInfo:
     J = ∫ (|r|² I − r rᵀ) dV with r = x − x_c: positive diagonal, off-diagonals
     −∫ r_i r_j dV; OCC's ``MatrixOfInertia`` convention, checked against a box and an
     L-shaped solid), and ``bounding_box_m`` [[x, y, z]min, [x, y, z]max] (OCC's box,
-    enlarged by its ~1e-7 m tolerance).
+    enlarged by its tolerance, ~1e-7 of the model unit).
     """
 
     nodes: int
@@ -73,24 +72,52 @@ class MeshInfo:
 
 
 def build_msh(geom: Geometry, mesh: MeshParams, path: Path, *, verbose: bool = False) -> MeshInfo:
-    """Build ``geom``, mesh it as ``mesh`` says, and write ``path`` (MSH 4.1, binary)."""
+    """Build ``geom``, mesh it as ``mesh`` says, and write ``path`` (MSH 4.1, binary).
+
+    The model is built and meshed in units of the power of ten nearest the body's largest
+    extent (``params.model_unit``) and written in metres (``Mesh.ScalingFactor``), so OCC's
+    and Gmsh's absolute tolerances are relative to the body: a body scaled by 1e-3 or 1e3,
+    its mesh sizes with it, gets the same mesh scaled. A failure of the geometry kernel or
+    the mesher is a ConfigError naming the geometry's keys and the kernel's message.
+    """
     path = Path(path)
+    unit = model_unit(largest_extent(geom))
     with gmsh_session(verbose) as set_option:
-        body = add_body(geom)
-        group_tags = _add_physical_groups(geom, body)
-        mass = _mass_properties(body.volume)
-        set_mesh_sizes(set_option, body, mesh)
-        gmsh.model.mesh.generate(3)
-        if mesh.order == 2:
-            gmsh.model.mesh.setOrder(2)
-            _check_curved_cells(mesh)
+        with kernel_errors(geom, mesh):
+            body = add_body(geom.in_units(unit))
+            group_tags = _add_physical_groups(geom, body)
+            mass = _mass_properties(body.volume, unit)
+            set_mesh_sizes(set_option, body, mesh.in_units(unit))
+            gmsh.model.mesh.generate(3)
+            if mesh.order == 2:
+                gmsh.model.mesh.setOrder(2)
+                _check_curved_cells(mesh)
         nodes = len(gmsh.model.mesh.getNodes()[0])
         cells = len(gmsh.model.mesh.getElementsByType(TETRAHEDRON[mesh.order])[0])
         set_option("Mesh.MshFileVersion", 4.1)
         set_option("Mesh.Binary", 1)
         set_option("Mesh.SaveAll", 0)  # physical groups only
+        set_option("Mesh.ScalingFactor", unit)  # model units → metres in the file
         _write_atomically(path)
     return MeshInfo(nodes=nodes, cells=cells, groups=group_tags, mass_properties=mass)
+
+
+@contextlib.contextmanager
+def kernel_errors(geom: Geometry, mesh: MeshParams) -> Iterator[None]:
+    """Turn the bare ``Exception`` Gmsh raises with the kernel's last error (OCC's or the
+    mesher's) and a :class:`KernelFailure` into a one-line ConfigError naming the keys of
+    the geometry, the mesh size and the kernel's message; other exceptions pass unchanged."""
+    try:
+        yield
+    except Exception as exc:
+        if type(exc) not in (Exception, KernelFailure):
+            raise
+        key = "section" if isinstance(geom, BeamParams) else "kind"
+        message = " ".join(str(exc).split())
+        raise ConfigError(f"[geometry] {key}", getattr(geom, key),
+                          f"the geometry kernel could not build or mesh this {geom.kind} "
+                          f"({message}): check {', '.join(geometry_keys(geom))} against "
+                          f"each other and [mesh] size = {mesh.size:g}") from exc
 
 
 @singledispatch
@@ -109,21 +136,22 @@ def _add_physical_groups(geom: Geometry, body: Body) -> dict[str, tuple[int, int
     tags = {groups.BODY: (3, groups.BODY_TAG)}
     for name, tag in surface_groups(geom).items():
         if not body.surfaces.get(name):
-            raise RuntimeError(f"geometry: surface group {name!r} matched no face of the model")
+            raise KernelFailure(f"surface group {name!r} matched no face of the model")
         gmsh.model.addPhysicalGroup(2, body.surfaces[name], tag)
         gmsh.model.setPhysicalName(2, tag, name)
         tags[name] = (2, tag)
     return tags
 
 
-def _mass_properties(volume: int) -> dict[str, Any]:
+def _mass_properties(volume: int, unit: float) -> dict[str, Any]:
+    """OCC's mass properties of ``volume`` (modelled in units of ``unit`` metres) in SI."""
     occ = gmsh.model.occ
-    box = occ.getBoundingBox(3, volume)
+    box = np.array(occ.getBoundingBox(3, volume)) * unit
     return {
-        "volume_m3": occ.getMass(3, volume),
-        "center_of_mass_m": list(occ.getCenterOfMass(3, volume)),
-        "inertia_m5": np.reshape(occ.getMatrixOfInertia(3, volume), (3, 3)).tolist(),
-        "bounding_box_m": [list(box[:3]), list(box[3:])],
+        "volume_m3": occ.getMass(3, volume) * unit**3,
+        "center_of_mass_m": (np.array(occ.getCenterOfMass(3, volume)) * unit).tolist(),
+        "inertia_m5": (np.reshape(occ.getMatrixOfInertia(3, volume), (3, 3)) * unit**5).tolist(),
+        "bounding_box_m": [box[:3].tolist(), box[3:].tolist()],
     }
 
 

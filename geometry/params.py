@@ -3,19 +3,22 @@
 Every check runs here, before Gmsh is touched: a bad value raises
 :class:`~gcms_fenicsx.validation.ConfigError` naming the key (``[geometry] thickness``),
 the value and what is allowed, including constraints between keys (a wall thicker than
-half the section, a pin that does not fit the throw, a mesh size larger than the body).
-Unknown keys are rejected. Lengths are in metres.
+half the section, a pin that does not fit the throw, a mesh size larger than the body) and
+features too small for the geometry kernel or the mesh size (``geometry.features``).
+Unknown keys are rejected. Lengths are in metres; ``in_units`` expresses a body in the
+length unit its model is built in (``model_unit``).
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Mapping
 
 from gcms_fenicsx.validation import Table
 
 from geometry import groups
 from geometry.crank_layout import CrankLayout, crank_layout
+from geometry.features import check_kernel_resolution, check_mesh_resolution
 from geometry.sections import SECTION_KEYS, SECTIONS, Dimensions, Profile, section_profile, \
     section_violation
 
@@ -24,6 +27,11 @@ MAX_THROWS = 16  # more than any inline engine has; the group tags would allow 9
 #: The default crankshaft mesh size as a fraction of web_thickness: about two elements
 #: through a web, ~27k nodes at order 2 for the default inline-4.
 CRANK_SIZE_PER_WEB_THICKNESS = 0.6
+
+#: Round surfaces get elements no longer than 1/16 of their circumference, whatever
+#: ``[mesh] size`` says: a circle section's volume is then within ~3e-5 at order 2
+#: (~2e-2 at order 1, faceted), where 2A/P alone would give six edges around.
+ELEMENTS_PER_CIRCLE = 16
 
 #: A plausible passenger-car inline-4 crankshaft (metres).
 CRANKSHAFT_DEFAULTS: dict[str, Any] = {
@@ -50,6 +58,23 @@ def default_crank_angles(throws: int) -> tuple[float, ...]:
     return tuple(360.0 * i / throws for i in range(throws))
 
 
+#: Significant digits a length keeps in model units (``in_units``).
+MODEL_DIGITS = 12
+
+
+def model_unit(extent: float) -> float:
+    """The power of ten nearest to a body's largest ``extent``: the length unit its model is
+    built in, so that Gmsh's and OCC's absolute tolerances are relative to the body."""
+    return 10.0 ** round(math.log10(extent))
+
+
+def in_units(length: float, unit: float) -> float:
+    """``length`` in units of ``unit``, rounded to MODEL_DIGITS significant digits: the same
+    body given at another scale differs in its last bits, and Gmsh's mesh would with them;
+    the rounding (5e-13 relative) is far below the kernel's 1e-7."""
+    return float(f"{length / unit:.{MODEL_DIGITS}g}")
+
+
 @dataclass(frozen=True)
 class BeamParams:
     """A straight prismatic beam along x from 0 to ``length``; ``dimensions`` holds the
@@ -63,6 +88,13 @@ class BeamParams:
     def profile(self) -> Profile:
         """The cross-section, centroid at the origin."""
         return section_profile(self.section, self.dimensions)
+
+    def in_units(self, unit: float) -> BeamParams:
+        """The same beam with every length divided by ``unit``."""
+        dims = {key: (tuple((in_units(y, unit), in_units(z, unit)) for y, z in value)
+                      if key == "vertices" else in_units(value, unit))
+                for key, value in self.dimensions.items()}
+        return BeamParams(self.section, dims, in_units(self.length, unit))
 
 
 @dataclass(frozen=True)
@@ -86,6 +118,10 @@ class CrankshaftParams:
     def layout(self) -> CrankLayout:
         return crank_layout(self)
 
+    def in_units(self, unit: float) -> CrankshaftParams:
+        """The same crankshaft with every length divided by ``unit``."""
+        return replace(self, **{key: in_units(getattr(self, key), unit) for key in _CRANK_LENGTHS})
+
 
 @dataclass(frozen=True)
 class MeshParams:
@@ -95,6 +131,11 @@ class MeshParams:
     size: float
     order: int = 2
     refine: dict[str, float] = field(default_factory=dict)
+
+    def in_units(self, unit: float) -> MeshParams:
+        """The same mesh with every size divided by ``unit``."""
+        return MeshParams(in_units(self.size, unit), self.order,
+                          {name: in_units(size, unit) for name, size in self.refine.items()})
 
 
 Geometry = BeamParams | CrankshaftParams
@@ -119,7 +160,9 @@ def _parse_beam(t: Table) -> BeamParams:
     if violation:
         key, allowed = violation
         raise t.error(key, dims[key], f"{allowed} (section {section!r})")
-    return BeamParams(section=section, dimensions=dims, length=length)
+    beam = BeamParams(section=section, dimensions=dims, length=length)
+    check_kernel_resolution(beam, largest_extent(beam))
+    return beam
 
 
 def _vertices(t: Table) -> tuple[tuple[float, float], ...]:
@@ -144,7 +187,9 @@ def _parse_crankshaft(t: Table) -> CrankshaftParams:
     flags = {key: t.boolean(key, d[key]) for key in ("counterweights", "nose", "flange")}
     t.finish()
     _check_crank_fits(t, lengths)
-    return CrankshaftParams(throws=throws, crank_angles_deg=tuple(angles), **lengths, **flags)
+    crank = CrankshaftParams(throws=throws, crank_angles_deg=tuple(angles), **lengths, **flags)
+    check_kernel_resolution(crank, largest_extent(crank))
+    return crank
 
 
 def _check_crank_fits(t: Table, v: dict[str, float]) -> None:
@@ -166,6 +211,13 @@ def largest_extent(geom: Geometry) -> float:
     if isinstance(geom, BeamParams):
         return max(geom.length, *geom.profile().outer.extent)
     return geom.layout().largest_extent
+
+
+def geometry_keys(geom: Geometry) -> tuple[str, ...]:
+    """The ``[geometry]`` keys that shape ``geom`` (besides ``kind``), for messages."""
+    if isinstance(geom, BeamParams):
+        return ("section", *geom.dimensions, "length")
+    return ("throws", "crank_angles_deg", *_CRANK_LENGTHS, "counterweights", "nose", "flange")
 
 
 def default_mesh_size(geom: Geometry) -> float:
@@ -193,6 +245,7 @@ def parse_mesh(raw: Mapping[str, Any] | None, geom: Geometry) -> MeshParams:
     if size > extent:
         raise t.error("size", size, f"must be <= {extent:g}, the largest extent of the "
                                     f"{geom.kind} (a mesh size larger than the body)")
+    check_mesh_resolution(geom, size, order)
     return MeshParams(size=size, order=order, refine=_parse_refine(refine_raw, geom, size))
 
 

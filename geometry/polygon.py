@@ -45,6 +45,19 @@ def polygon_defect(vertices: tuple[Point, ...]) -> str | None:
     return None
 
 
+def shortest_edge(vertices: tuple[Point, ...]) -> float:
+    """The length of the polygon's shortest edge."""
+    return min(math.dist(a, b) for a, b in zip(vertices, vertices[1:] + vertices[:1]))
+
+
+def narrowest_gap(vertices: tuple[Point, ...]) -> float:
+    """The smallest distance of a vertex to an edge that does not end at it: the width of
+    a spike or a notch, a triangle's smallest altitude."""
+    n = len(vertices)
+    return min(_distance_to_segment(vertices[i], vertices[k], vertices[(k + 1) % n])
+               for i in range(n) for k in range(n) if i not in (k, (k + 1) % n))
+
+
 def _distance_to_segment(p: Point, a: Point, b: Point) -> float:
     """Euclidean distance from p to the closed segment ab."""
     dy, dz = b[0] - a[0], b[1] - a[1]

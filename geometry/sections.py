@@ -8,6 +8,7 @@ an outer shape minus an inner one. Pure Python: checked before Gmsh runs.
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -66,6 +67,21 @@ class Profile:
         """2A/P, half the hydraulic diameter: the wall thickness of a thin-walled section,
         half the side of a square, the radius of a circle."""
         return 2.0 * self.area / self.perimeter
+
+    @property
+    def least_second_moment(self) -> float:
+        """The smallest principal second moment of area about the centroid (m⁴): the
+        bending stiffness per E about the weakest axis."""
+        (oyy, ozz, oyz), (cy, cz), a = self.outer.second_moments, self.centroid, self.area
+        hyy, hzz, hyz = self.hole.second_moments if self.hole else (0.0, 0.0, 0.0)
+        yy, zz, yz = oyy - hyy - a * cy * cy, ozz - hzz - a * cz * cz, oyz - hyz - a * cy * cz
+        return (yy + zz) / 2.0 - math.hypot((yy - zz) / 2.0, yz)
+
+    @property
+    def bending_depth(self) -> float:
+        """√(12 I_min/A): the depth of the rectangle with the same radius of gyration about
+        the weakest axis (the height of a rectangle bent across it, 0.87 d for a circle)."""
+        return math.sqrt(12.0 * self.least_second_moment / self.area)
 
     def centred(self) -> Profile:
         """The same profile moved so that its centroid is at the origin."""

@@ -11,6 +11,7 @@ import math
 from dataclasses import dataclass
 
 Point = tuple[float, float]
+SecondMoments = tuple[float, float, float]  # (∫y², ∫z², ∫yz) dA
 
 
 def turn(o: Point, a: Point, b: Point) -> float:
@@ -45,6 +46,13 @@ class Circle:
 
     def shifted(self, dy: float, dz: float) -> Circle:
         return Circle(self.radius, (self.centre[0] + dy, self.centre[1] + dz))
+
+    @property
+    def second_moments(self) -> SecondMoments:
+        """(∫y², ∫z², ∫yz) dA about the origin: πr⁴/4 about the centre, plus A·c cᵀ."""
+        (cy, cz), a = self.centre, self.area
+        own = math.pi * self.radius**4 / 4.0
+        return (own + a * cy * cy, own + a * cz * cz, a * cy * cz)
 
 
 @dataclass(frozen=True)
@@ -86,6 +94,21 @@ class Polygon:
 
     def shifted(self, dy: float, dz: float) -> Polygon:
         return Polygon(tuple((y + dy, z + dz) for y, z in self.vertices))
+
+    @property
+    def second_moments(self) -> SecondMoments:
+        """(∫y², ∫z², ∫yz) dA about the origin by the shoelace sums, with w_i as for the
+        centroid: Σ w_i (y_i² + y_i y_{i+1} + y_{i+1}²)/12, likewise for z, and
+        Σ w_i (y_i z_{i+1} + 2 y_i z_i + 2 y_{i+1} z_{i+1} + y_{i+1} z_i)/24; the sign of the
+        signed area makes either orientation positive."""
+        sign = math.copysign(1.0, self.signed_area)
+        yy = zz = yz = 0.0
+        for (y0, z0), (y1, z1) in self._edges():
+            w = y0 * z1 - y1 * z0
+            yy += w * (y0 * y0 + y0 * y1 + y1 * y1)
+            zz += w * (z0 * z0 + z0 * z1 + z1 * z1)
+            yz += w * (y0 * z1 + 2.0 * y0 * z0 + 2.0 * y1 * z1 + y1 * z0)
+        return (sign * yy / 12.0, sign * zz / 12.0, sign * yz / 24.0)
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ from mpi4py import MPI
 
 from gcms_fenicsx.mesh import read_mesh
 from gcms_fenicsx.validation import ConfigError
-from geometry import MeshInfo, build_msh, parse_geometry, parse_mesh, section_area
+from geometry import MeshInfo, MeshParams, build_msh, parse_geometry, parse_mesh, section_area
 from geometry.crankshaft import add_crankshaft
 from geometry.meshing import gmsh_initialized, gmsh_session
 from test_geometry_params import ANALYTIC_AREAS
@@ -212,13 +212,17 @@ def test_failure_leaves_no_file_and_gmsh_finalized(tmp_path, monkeypatch):
 
 
 def test_folded_curved_cells_are_rejected_without_a_file(tmp_path):
-    """A 0.5 mm tube wall meshed at 10 mm: curving the order-2 edges folds cells."""
+    """A 0.5 mm tube wall meshed at 10 mm: parse_mesh refuses the size (the wall is below
+    MIN_FEATURE_PER_SIZE[2] = 0.2 of it); given to build_msh anyway, curving the order-2
+    edges folds cells, and the mesher's own check refuses them."""
     geom = parse_geometry({"kind": "beam", "section": "tube", "radius": 0.02,
                            "thickness": 0.0005, "length": 0.05})
+    with pytest.raises(ConfigError, match=r"^\[geometry\] thickness = 0.0005: the wall"):
+        parse_mesh({"size": 0.01}, geom)
     with pytest.raises(ConfigError, match=r"^\[mesh\] size = 0.01: folds \d+ curved"):
-        build_msh(geom, parse_mesh({"size": 0.01}, geom), tmp_path / "mesh.msh")
+        build_msh(geom, MeshParams(size=0.01, order=2), tmp_path / "mesh.msh")
     assert list(tmp_path.iterdir()) == [] and not gmsh_initialized()
-    build_msh(geom, parse_mesh({"size": 0.01, "order": 1}, geom), tmp_path / "mesh.msh")
+    build_msh(geom, MeshParams(size=0.01, order=1), tmp_path / "mesh.msh")
 
 
 def test_someone_elses_gmsh_session_is_left_alone(tmp_path):
