@@ -1,14 +1,65 @@
 """Pictures of a simulation for a person to look at: a sensor's trajectory and the energies.
 
+They are drawn from ``results.h5`` and read only what they show — the time, the first output
+group, the energies and the multipliers — and of a long run only every k-th recorded row, at
+most ``PLOT_ROWS`` of them (a figure is about a thousand pixels wide; the title says k), so
+drawing them takes bounded memory whatever the length of the run.
+
 Matplotlib (Agg) is imported when a picture is drawn, not before.
 """
 from __future__ import annotations
 
+import json
+import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from gcms_fenicsx.dynamics.results import Trajectory
+from gcms_fenicsx.dynamics.results import MULTIPLIERS, joint_force, open_results
+
+#: At most this many rows of each series are read for the pictures.
+PLOT_ROWS = 20_000
+
+
+@dataclass(frozen=True)
+class PlotData:
+    """What the pictures show, read from results.h5 (every ``stride``-th recorded row)."""
+
+    time: np.ndarray
+    sensor: str | None                 # the first output group
+    sensor_position: np.ndarray
+    energy: dict[str, np.ndarray]
+    multipliers: np.ndarray
+    rows: list[dict]
+    complete: bool
+    stride: int
+
+    def joint_force(self, joint: str) -> np.ndarray:
+        """The force (N) ``joint`` exerts on the body, at the rows shown."""
+        return joint_force(self.rows, self.multipliers, joint)
+
+    @property
+    def note(self) -> str:
+        """What the title says about the rows shown."""
+        return "" if self.stride == 1 else f" (one recorded row in {self.stride} shown)"
+
+
+def read_plot_data(path: Path, max_rows: int = PLOT_ROWS) -> PlotData:
+    """The series the pictures need, every k-th row with k = ⌈rows / max_rows⌉; the file is
+    the one this run has just written, so its checksums are not read back."""
+    with open_results(path, verify=False) as (f, _):
+        stride = max(1, math.ceil(len(f["time"]) / max_rows))
+        groups = json.loads(f.attrs["scene"])["outputs"]["groups"]   # HDF5 sorts its groups
+        sensor = groups[0] if groups else None
+        return PlotData(
+            time=f["time"][::stride],
+            sensor=sensor,
+            sensor_position=(f[f"groups/{sensor}/position"][::stride] if sensor
+                             else np.zeros((0, 3))),
+            energy={n: f[f"energy/{n}"][::stride] for n in f.get("energy", {})},
+            multipliers=f[MULTIPLIERS][::stride], rows=json.loads(f.attrs["rows"]),
+            complete=bool(f.attrs["complete"]), stride=stride)
 
 
 def _pyplot():
@@ -18,11 +69,11 @@ def _pyplot():
     return plt
 
 
-def plot_trajectory(traj: Trajectory, path: Path, sensor: str) -> None:
+def plot_trajectory(traj: PlotData, path: Path) -> None:
     """The sensor group's displacement components against time, and its path in the plane
     of its two largest motions."""
     plt = _pyplot()
-    t, x = traj.time, traj.groups[sensor]["position"]
+    t, x, sensor = traj.time, traj.sensor_position, traj.sensor
     d = x - x[0]
     scale, unit = (1e3, "mm") if np.abs(d).max() > 1e-4 else (1e6, "µm")
     fig, (left, right) = plt.subplots(1, 2, figsize=(11.5, 4.3))
@@ -42,13 +93,13 @@ def plot_trajectory(traj: Trajectory, path: Path, sensor: str) -> None:
     right.grid(alpha=0.3)
     right.set_title(f"path of {sensor}")
     status = "" if traj.complete else "  (incomplete)"
-    fig.suptitle(f"sensor {sensor}{status}")
+    fig.suptitle(f"sensor {sensor}{status}{traj.note}")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
-def plot_energy(traj: Trajectory, path: Path) -> None:
+def plot_energy(traj: PlotData, path: Path) -> None:
     """Kinetic, elastic and gravity energy, the work terms, and the balance error."""
     plt = _pyplot()
     e, t = traj.energy, traj.time
@@ -67,12 +118,13 @@ def plot_energy(traj: Trajectory, path: Path) -> None:
     bottom.set_ylabel("balance error [J]")
     bottom.set_xlabel("time [s]")
     bottom.grid(alpha=0.3)
+    top.set_title(f"energies{traj.note}")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
-def plot_joints(traj: Trajectory, path: Path) -> None:
+def plot_joints(traj: PlotData, path: Path) -> None:
     """Every joint's force on the body (magnitude) and its moments, against time."""
     plt = _pyplot()
     joints = list(dict.fromkeys(r["joint"] for r in traj.rows))
@@ -85,6 +137,7 @@ def plot_joints(traj: Trajectory, path: Path) -> None:
                 bottom.plot(traj.time, -traj.multipliers[:, i], lw=0.9,
                             label=f"{name}: {r['kind'].replace('_', ' ')} about {axis}")
     top.set_ylabel("|joint force on body| [N]")
+    top.set_title(f"joints{traj.note}")
     top.legend(loc="best", fontsize=8)
     top.grid(alpha=0.3)
     bottom.set_ylabel("moment on body [N·m]")
@@ -96,12 +149,13 @@ def plot_joints(traj: Trajectory, path: Path) -> None:
     plt.close(fig)
 
 
-def plot_results(traj: Trajectory, folder: Path) -> list[str]:
-    """trajectory.png (first output group), energy.png and joints.png, where the data exist;
-    their names."""
+def plot_results(results: Path, folder: Path) -> list[str]:
+    """trajectory.png (first output group), energy.png and joints.png of the results file
+    ``results``, where the data exist; their names."""
+    traj = read_plot_data(results)
     written = []
-    if traj.groups and len(traj.time) > 1:
-        plot_trajectory(traj, folder / "trajectory.png", next(iter(traj.groups)))
+    if traj.sensor is not None and len(traj.time) > 1:
+        plot_trajectory(traj, folder / "trajectory.png")
         written.append("trajectory.png")
     if traj.energy and len(traj.time) > 1:
         plot_energy(traj, folder / "energy.png")

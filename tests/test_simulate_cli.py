@@ -18,6 +18,7 @@ from conftest import REPO, gcms
 from gcms_fenicsx.dynamics.results import (RESULTS_SCHEMA_VERSION, ResultsError, Trajectory,
                                            read_results, write_results)
 from gcms_fenicsx.reduced_model import read_reduced
+from gcms_fenicsx.versioned_file import seal
 from test_dynamics import beam_study
 
 #: A cantilever under gravity for 10 ms: cheap, with joints, loads and every output.
@@ -220,14 +221,15 @@ def test_bad_scene_is_one_clear_line_and_changes_nothing(reduced, tmp_path, tool
 
 
 def test_non_finite_reduced_model_is_refused(reduced, tmp_path):
-    """A reduced.h5 with a NaN in Kr: the standalone integrator refuses it with exit status 2
-    and one line naming the file, the dataset and what is wrong; the output folder is
-    unchanged. ``gcms simulate`` treats the same file in its output folder as a stale cache:
-    it says so and rebuilds it."""
+    """A reduced.h5 written with a NaN in Kr (checksums that fit it, so the content check must
+    catch it): the standalone integrator refuses it with exit status 2 and one line naming the
+    file, the dataset and what is wrong; the output folder is unchanged. ``gcms simulate``
+    treats the same file in its output folder as a stale cache: it says so and rebuilds it."""
     damaged = tmp_path / "damaged.h5"
     shutil.copy2(reduced, damaged)
     with h5py.File(damaged, "r+") as f:
         f["stiffness"][3, 3] = np.nan
+        seal(f)
     out = output_folder(tmp_path)
     before = contents(out)
     run = standalone(str(damaged), str(study(tmp_path)), "--out", str(out))
@@ -329,9 +331,11 @@ def test_initial_mode_amplitude_that_inverts_the_body_is_a_clear_error(reduced, 
 
 def test_ill_conditioned_reduced_model_is_a_clear_error(tmp_path):
     """A square beam reduced without preconditioning ([selection] orthonormalize = false,
-    cond(Mr) = 6e11) makes the integrator refuse its iteration matrix ("numerically
-    singular", raised by ``dense_factorization``). ``gcms simulate`` reports that in one line
-    (exit status 1 or 2), also through ``outputs.on_rank0``: no traceback."""
+    cond(Mr) = 6e11) makes the integrator refuse its mass matrix ("numerically singular",
+    raised by ``dense_factorization``). ``gcms simulate`` reports that in one line (exit
+    status 1 or 2), also through ``outputs.on_rank0``: no traceback; the line blames Mr with
+    its condition number and names the setting that cures it ([selection] orthonormalize =
+    true), not the time step (whose own diagnosis is tested in test_dynamics_failures)."""
     text = """
 [geometry]
 kind = "beam"
@@ -356,4 +360,8 @@ orthonormalize = false
     run = gcms("simulate", str(config), "--out", str(out))
     assert run.returncode in (1, 2), run.stderr
     assert "Traceback" not in run.stderr, run.stderr[-2000:]
-    assert "singular" in run.stderr
+    failed = [line for line in run.stderr.splitlines() if "failed" in line or "error" in line]
+    assert len(failed) == 1 and "singular" in failed[0], run.stderr
+    assert re.search(r"mass matrix Mr is numerically singular \(\|Mr Mr\^-1 - I\| = \S+, "
+                     r"cond \d\.\de\+\d\d\)", failed[0]), failed[0]
+    assert "orthonormalize = true" in failed[0] and "time_step" not in failed[0]

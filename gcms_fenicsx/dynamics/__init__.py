@@ -5,19 +5,21 @@ Nothing in this package imports dolfinx, PETSc, MPI, Gmsh or SciPy, so a reduced
 
     from gcms_fenicsx.dynamics import read_reduced, parse_scene, simulate
     traj, summary = simulate(read_reduced("reduced.h5"), parse_scene({...}))
+    summary = simulate_to_file(model, scene, "results.h5")   # streamed: memory stays flat
 
 or from the shell: ``python -m gcms_fenicsx.dynamics reduced.h5 study.toml --out DIR``.
 
 Modules: ``rotation`` (polar decomposition and its rate), ``body`` (the GCMS body),
 ``corotated`` (elastic energy, forces, exact tangent), ``joints`` (linear constraints),
-``loads``, ``scene`` (the [scene] table), ``integrator`` (generalized-α and Newton),
-``recorder`` and ``results`` (what is kept, results.h5), ``simulate`` (composition).
+``loads``, ``scene`` (the [scene] table), ``initial`` (the initial mode shape),
+``integrator`` (generalized-α and Newton), ``recorder`` and ``results`` (what is kept,
+results.h5), ``budget`` (whether the results fit), ``simulate`` (composition).
 """
 from gcms_fenicsx.dynamics.results import ResultsError, Trajectory, read_results, write_results
 from gcms_fenicsx.dynamics.scene import Scene, SceneError, parse_scene
-from gcms_fenicsx.dynamics.simulate import simulate, simulate_body
+from gcms_fenicsx.dynamics.simulate import simulate, simulate_body, simulate_to_file
 from gcms_fenicsx.reduced_model import ReducedModelError, read_reduced
 
 __all__ = ["ReducedModelError", "ResultsError", "Scene", "SceneError", "Trajectory",
            "parse_scene", "read_reduced", "read_results", "simulate", "simulate_body",
-           "write_results"]
+           "simulate_to_file", "write_results"]

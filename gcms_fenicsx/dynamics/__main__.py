@@ -13,6 +13,8 @@ from pathlib import Path
 from gcms_fenicsx.config import load_config
 from gcms_fenicsx.dynamics.scene import SceneError
 from gcms_fenicsx.errors import ComputationFailed
+from gcms_fenicsx.files import SIMULATION_FILES
+from gcms_fenicsx.interrupts import Interrupted, interruptible
 from gcms_fenicsx.outputs import staged_output
 from gcms_fenicsx.progress import progress_printer
 from gcms_fenicsx.reduced_model import ReducedModelError, read_reduced
@@ -28,11 +30,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, required=True, help="output folder")
     args = parser.parse_args(argv)
     try:
+        with interruptible():
+            return _run(args)
+    except Interrupted as exc:
+        print(f"interrupted ({exc}); {args.out} is as it was", file=sys.stderr)
+        return exc.exit_status
+
+
+def _run(args: argparse.Namespace) -> int:
+    try:
         cfg = load_config(args.config)
         if cfg.scene is None:
             raise ConfigError.missing("[scene]", f"required in {args.config}")
         model = read_reduced(args.reduced)
-        with staged_output(args.out) as folder:
+        if not model.checksummed:
+            print(f"note: {args.reduced} was written before content checksums (schema "
+                  f"{model.schema_version}); its contents cannot be verified", file=sys.stderr)
+        with staged_output(args.out, owns=SIMULATION_FILES) as folder:
             summary = run_scene(cfg, model, folder, progress_printer(), plots=False)
     except (ConfigError, SceneError, ReducedModelError) as exc:
         print(f"error: {exc}", file=sys.stderr)

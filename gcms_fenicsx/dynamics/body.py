@@ -124,6 +124,17 @@ class Body:
         return (Q @ Omega.T + np.outer(self.unit, drift)).ravel()
 
 
+def elastic_modes(body: Body) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvalues and Mr-orthonormal eigenvectors of (Kr, Mr), ascending (dense bodies).
+
+    With L Lᵀ = Mr: L⁻¹ Kr L⁻ᵀ y = λ y and ψ = L⁻ᵀ y. The first six are the rigid modes.
+    """
+    L_inv = np.linalg.inv(np.linalg.cholesky(np.asarray(body.mass)))
+    A = L_inv @ np.asarray(body.stiffness) @ L_inv.T
+    lam, Y = np.linalg.eigh(0.5 * (A + A.T))
+    return lam, L_inv.T @ Y
+
+
 def make_body(mass: Any, stiffness: Any, gram: Any, q0: np.ndarray, unit: np.ndarray,
               centred: np.ndarray, gravity: np.ndarray, groups: dict[str, GroupRows],
               node_fields: Any, nodes_m: np.ndarray) -> Body:

@@ -58,19 +58,21 @@ the linear one; co-rotated damping is not combined with another elastic law.
 """
 from __future__ import annotations
 
+import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any, Callable
 
 import numpy as np
 
-from gcms_fenicsx.dynamics.body import Body
+from gcms_fenicsx.dynamics.body import Body, elastic_modes
 from gcms_fenicsx.dynamics.corotated import (ElasticState, elastic_state, frame_force,
                                              frame_update, translation_free_force,
                                              without_translation)
 from gcms_fenicsx.dynamics.joints import Constraints
 from gcms_fenicsx.dynamics.loads import ExternalForces
-from gcms_fenicsx.dynamics.rotation import rotation_rate, skew
-from gcms_fenicsx.dynamics.scene import Solver
+from gcms_fenicsx.dynamics.rotation import InvertedBodyError, rotation_rate, skew
+from gcms_fenicsx.dynamics.scene import SceneError, Solver
 from gcms_fenicsx.errors import ComputationFailed
 
 Solve = Callable[[np.ndarray], np.ndarray]
@@ -85,6 +87,9 @@ UPGRADE_RATE = 0.6
 LOCAL_REUSE_STEPS = 10
 #: q ↦ an object with ``force`` (∂V/∂q), ``energy`` (V) and ``rotation`` (R of the frame).
 Elastic = Callable[[np.ndarray], Any]
+#: ``dense_factorization`` refuses a matrix whose computed inverse leaves |A A⁻¹ − I| above this.
+INVERSE_DEFECT_LIMIT = 1e-6
+EPS = float(np.finfo(float).eps)
 
 
 class IntegrationError(ComputationFailed):
@@ -99,23 +104,73 @@ class IntegrationError(ComputationFailed):
         return (type(self), (str(self), self.time_s))
 
 
+class SingularMatrixError(IntegrationError):
+    """A matrix the integrator must factorise is singular to working precision: its inverse
+    defect |A A⁻¹ − I| and condition number (inf when the LU broke down)."""
+
+    def __init__(self, defect: float, cond: float) -> None:
+        self.defect, self.cond = float(defect), float(cond)
+        super().__init__(f"matrix is numerically singular: {self.numbers}", 0.0)
+
+    def __reduce__(self):
+        return (type(self), (self.defect, self.cond))
+
+    @property
+    def numbers(self) -> str:
+        return f"|A A^-1 - I| = {self.defect:.1e}, cond {self.cond:.1e}"
+
+
 def dense_factorization(A: np.ndarray) -> Solve:
     """x = A⁻¹ b by one mat-vec with the explicit inverse (A small and dense).
 
-    Raises IntegrationError if A is singular or so ill-conditioned that A A⁻¹ is not I to
-    1e-6.
+    Raises :class:`SingularMatrixError` if A is singular or so ill-conditioned that A A⁻¹ is
+    not I to ``INVERSE_DEFECT_LIMIT``; the caller knows what A is and says why
+    (:func:`mass_factorization`, :class:`GeneralizedAlpha`).
     """
     A = np.asarray(A)
     try:
         inv = np.linalg.inv(A)
     except np.linalg.LinAlgError as exc:
-        raise IntegrationError(f"iteration matrix is singular: {exc}", 0.0) from exc
+        raise SingularMatrixError(np.inf, np.inf) from exc
     defect = np.abs(A @ inv - np.eye(len(A))).max()
-    if not defect < 1e-6:
-        raise IntegrationError(f"iteration matrix is numerically singular: |A A^-1 - I| = "
-                               f"{defect:.1e} (cond {np.linalg.cond(A):.1e}); are dependent "
-                               "fields left in the reduced model?", 0.0)
+    if not defect < INVERSE_DEFECT_LIMIT:
+        raise SingularMatrixError(defect, np.linalg.cond(A))
     return lambda b: inv @ b
+
+
+def mass_factorization(body: Body, factorize: Factorize) -> Solve:
+    """Mr⁻¹ through ``factorize``; IntegrationError naming the reduced model's selection when Mr
+    itself is numerically singular (its fields are nearly dependent: no time step helps)."""
+    try:
+        return factorize(body.mass)
+    except SingularMatrixError as exc:
+        raise IntegrationError(
+            "the reduced mass matrix Mr is numerically singular "
+            f"({exc.numbers.replace('A', 'Mr')}): dependent fields are left in the reduced "
+            "model; reduce it again with [selection] orthonormalize = true (the preconditioned "
+            "basis has cond(Mr) = 1e1..1e3) or a larger svd_tolerance", 0.0) from exc
+
+
+def newton_coefficients(p: AlphaParameters, h: float) -> tuple[float, float]:
+    """(β', γ') = ((1 − α_m)/(β h² (1 − α_f)), γ/(β h)): how a Newton correction Δq changes q̈
+    and q̇ (module docstring)."""
+    return (1.0 - p.alpha_m) / (p.beta * h * h * (1.0 - p.alpha_f)), p.gamma / (p.beta * h)
+
+
+def constant_iteration_matrix(body: Body, beta_p: float, gamma_p: float,
+                              damping: tuple[float, float]) -> Any:
+    """S₀ = β' Mr + γ' D₀ + Kr = (β' + γ'α) Mr + (1 + γ'β) Kr (module docstring)."""
+    alpha, beta = damping
+    return (beta_p + gamma_p * alpha) * body.mass + (1.0 + gamma_p * beta) * body.stiffness
+
+
+def _one_two_five_below(h: float, decades: int = 20) -> Iterator[float]:
+    """1, 2, 5 × 10^k below h, descending, over ``decades`` decades."""
+    top = math.floor(math.log10(h))
+    for k in range(top, top - decades, -1):
+        for m in (5.0, 2.0, 1.0):
+            if m * 10.0 ** k < h:
+                yield m * 10.0 ** k
 
 
 @dataclass(frozen=True)
@@ -163,7 +218,7 @@ class GeneralizedAlpha:
     def __init__(self, body: Body, constraints: Constraints, forces: ExternalForces,
                  time_step_s: float, rho_inf: float, damping: tuple[float, float],
                  solver: Solver, factorize: Factorize = dense_factorization,
-                 elastic: Elastic | None = None) -> None:
+                 elastic: Elastic | None = None, mass_solve: Solve | None = None) -> None:
         self.body, self.constraints, self.forces = body, constraints, forces
         self.elastic = elastic or (lambda q: elastic_state(body, q))
         self.corotated = elastic is None
@@ -174,21 +229,58 @@ class GeneralizedAlpha:
             raise ValueError('jacobian = "assembled" needs a dense body')
         self.h = time_step_s
         self.p = AlphaParameters.from_rho_inf(rho_inf)
-        p, h = self.p, time_step_s
-        self.beta_p = (1.0 - p.alpha_m) / (p.beta * h * h * (1.0 - p.alpha_f))
-        self.gamma_p = p.gamma / (p.beta * h)
+        self.beta_p, self.gamma_p = newton_coefficients(self.p, time_step_s)
         self.damping = damping
         self.damped = damping != (0.0, 0.0)
         self.solver = solver
-        alpha, beta = damping
-        self.S0 = ((self.beta_p + self.gamma_p * alpha) * body.mass
-                   + (1.0 + self.gamma_p * beta) * body.stiffness)
+        self.S0 = constant_iteration_matrix(body, self.beta_p, self.gamma_p, damping)
         self.factorize = factorize
-        self._mass_solve: Solve | None = None
+        self._mass_solve = mass_solve
         self.tolerance_m = solver.tolerance * body.size_m
-        self.kkt = _BorderedKKT(body, constraints, factorize(self.S0), self.apply_A)
+        self.kkt = _BorderedKKT(body, constraints, self._factorize_S0(), self.apply_A)
         self.frame_terms = False   # "rotated": start steps with the kept rank-9 term
         self.kept_steps = 0        # steps since the kept rank-9 term was re-linearised
+
+    def _factorize_S0(self) -> Solve:
+        """S₀⁻¹; a singular S₀ is explained by :meth:`_singular_S0`."""
+        try:
+            return self.factorize(self.S0)
+        except SingularMatrixError as exc:
+            raise self._singular_S0(exc) from exc
+
+    def _singular_S0(self, exc: SingularMatrixError) -> Exception:
+        """Why S₀ = β'Mr + Kr (+ damping) is singular, and what to change.
+
+        Either Mr itself is (dependent fields: :func:`mass_factorization` raises), or the time
+        step is so large that β' ~ 1/h² sinks into the round-off of Kr on rigid motion: the six
+        rigid eigenvalues of (Kr, Mr) are zero only to ε·λ_max(Kr, Mr), so S₀ has eigenvalues
+        β' ± ε·λ_max (in the Mr metric) on rigid motion against β' + λ_max on the stiffest mode,
+        and the rigid motions lose their inertia in S₀. The step that works is the largest of
+        1, 2, 5 × 10^k below h whose S₀ ``factorize`` accepts.
+        """
+        self.mass_solve()
+        if not isinstance(self.body.mass, np.ndarray):
+            return exc
+        lam_max = float(elastic_modes(self.body)[0][-1])
+        noise = EPS * lam_max
+        works = next((h for h in _one_two_five_below(self.h) if self._factorizes(h)), None)
+        remedy = (f"time_step = {works:g} s works" if works is not None else
+                  "no time step down to 1e-20 of it works")
+        return SceneError(
+            f"[scene] time_step = {self.h:g}: the iteration matrix S0 = β'Mr + Kr is numerically "
+            f"singular ({exc.numbers}): β' = {self.beta_p:.2e} 1/s² is only "
+            f"{self.beta_p / noise:.1e} times the round-off of Kr on rigid motion, "
+            f"ε·λ_max(Kr, Mr) = {noise:.1e} 1/s² (cond(Mr) = "
+            f"{np.linalg.cond(self.body.mass):.1e} is fine); {remedy}")
+
+    def _factorizes(self, h: float) -> bool:
+        """Whether ``factorize`` accepts S₀ at time step h (same ρ∞ and damping)."""
+        S0 = constant_iteration_matrix(self.body, *newton_coefficients(self.p, h), self.damping)
+        try:
+            self.factorize(S0)
+        except SingularMatrixError:
+            return False
+        return True
 
     def apply_A(self, X: np.ndarray) -> np.ndarray:
         """A X with A = γ' D₀ + Kr = γ'α Mr + (1 + γ'β) Kr, the operator J_e is applied to in
@@ -225,8 +317,9 @@ class GeneralizedAlpha:
 
     # -- start ----------------------------------------------------------------------------
     def mass_solve(self) -> Solve:
+        """Mr⁻¹ (given, or factorised on first use by :func:`mass_factorization`)."""
         if self._mass_solve is None:
-            self._mass_solve = self.factorize(self.body.mass)
+            self._mass_solve = mass_factorization(self.body, self.factorize)
         return self._mass_solve
 
     def project_velocity(self, t: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -290,7 +383,8 @@ class GeneralizedAlpha:
 
         Newton stops when the increment δ (mass-weighted RMS, metres) is below the
         tolerance, or when the error left after it, estimated from the observed contraction
-        ρ = δ_k / δ_{k−1} as δ_k ρ / (1 − ρ), is.
+        ρ = δ_k / δ_{k−1} as δ_k ρ / (1 − ρ), is. An iterate whose affine map has no rotation
+        (``rotation.polar``) ends the step as Newton divergence, with its increments.
         """
         p, h = self.p, self.h
         t1 = s.t + h
@@ -304,12 +398,16 @@ class GeneralizedAlpha:
         f_ext = self.forces(t1)
         tol = self.tolerance_m
         previous, full_newton = np.inf, False
+        increments: list[float] = []
         jacobian = self.solver.jacobian
         exact = jacobian != "rotated" or self.frame_terms
         relinearise = jacobian == "exact" or self.kept_steps >= LOCAL_REUSE_STEPS
         self.kept_steps = 0 if relinearise else self.kept_steps + 1
         for iteration in range(1, self.solver.max_iterations + 1):
-            r, es, dissipation = self.residual(f_ext, q, v, acc, lam, U)
+            try:
+                r, es, dissipation = self.residual(f_ext, q, v, acc, lam, U)
+            except InvertedBodyError as exc:
+                raise self._divergence(t1, iteration, increments, exc) from exc
             g = c.residual(q, U)
             if jacobian == "assembled":
                 dq, dlam = self._assembled_correction(es, r, g, U)
@@ -337,6 +435,7 @@ class GeneralizedAlpha:
             v += self.gamma_p * dq
             acc += self.beta_p * dq
             lam += dlam
+            increments.append(delta)
             if delta <= tol or delta * delta <= tol * (previous - delta) < np.inf:
                 break
             previous = delta
@@ -349,6 +448,22 @@ class GeneralizedAlpha:
         a1 = a1 + (1.0 - p.alpha_f) / (1.0 - p.alpha_m) * (acc - s.acc)
         return (State(t=t1, q=q, v=v, acc=acc, a=a1, lam=lam),
                 StepInfo(es, dissipation, U, iteration, f_ext))
+
+    def _divergence(self, t1: float, iteration: int, increments: list[float],
+                    exc: InvertedBodyError) -> IntegrationError:
+        """The step to t1 failed because an iterate left the states that have a rotation: Newton
+        diverged (or, at iteration 1, the predictor q + h q̇ + … already did)."""
+        remedy = f"reduce [scene] time_step (now {self.h:g} s)"
+        if iteration == 1:
+            return IntegrationError(
+                f"the step to t = {t1:.6g} s failed before Newton: its predictor gives the body's "
+                f"affine map {exc.numbers}: the motion is too fast for the step; {remedy}", t1)
+        shown = ", ".join(f"{d:.2e}" for d in increments[-6:])
+        more = f"the last 6 of {len(increments)} " if len(increments) > 6 else ""
+        return IntegrationError(
+            f"Newton diverged at t = {t1:.6g} s: iteration {iteration} reached a state whose "
+            f"affine map has {exc.numbers}, after {more}increments {shown} m (tolerance "
+            f"{self.tolerance_m:.1e} m); {remedy} or the loads", t1)
 
     def _norm(self, dq: np.ndarray) -> float:
         """The mass-weighted RMS size of a correction, √(Δqᵀ Mr Δq / m) (metres)."""

@@ -20,10 +20,22 @@ in the initial state, so every joint holds its group where it starts.
 
 Rows sharing a v (a joint's position rows, say) are computed together: the integrator's
 solves depend on the rows only through the few distinct v.
+
+Redundant joints (two spherical joints on one group, a revolute and a spherical one, two
+fixed joints, a fixed and a revolute one) repeat rows, and the constraint block of the
+Newton matrix is then singular. The rows are linear in q, so whether a row is implied by the
+others is decided once, at t = 0, in the kinetic metric: the Gram matrix Ĝ = D^-1/2 C Mr⁻¹ Cᵀ
+D^-1/2 (D its diagonal) holds the cosines between the rows as forces acting on the body's
+inertia, independent of their units (force or moment rows) and of the coordinates
+(:func:`independent_rows`). A row already implied by the rows of earlier joints is dropped
+and reported; a drive's row so implied means that another joint holds the rotation the drive
+prescribes, which is a contradiction (SceneError naming both).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import partial
+from typing import Any, Callable
 
 import numpy as np
 
@@ -34,6 +46,11 @@ from gcms_fenicsx.dynamics.scene import Drive, Joint, SceneError
 #: A rotation constraint about c needs a group direction d ⊥ c with at least this length
 #: after c is projected out of the group's span.
 _MIN_LEVER = 1e-3
+EPS = float(np.finfo(float).eps)
+#: Contributions below this fraction of the largest are not named when a drive's row is
+#: found implied by other joints' rows (only the message uses it).
+_NAMED_SHARE = 1e-6
+MassSolve = Callable[[np.ndarray], np.ndarray]
 
 
 @dataclass(frozen=True)
@@ -63,6 +80,7 @@ class Constraints:
     targets: np.ndarray
     drives: dict[int, tuple[Drive, np.ndarray]]
     rows: tuple[RowInfo, ...]
+    dropped: tuple[RowInfo, ...] = ()   # redundant rows left out (module docstring)
 
     @property
     def count(self) -> int:
@@ -132,8 +150,26 @@ def _lever(span: np.ndarray, c: np.ndarray, turning: np.ndarray | None) -> np.nd
     return perp[:, best] / lengths[best] if lengths[best] > _MIN_LEVER else None
 
 
-def build_constraints(body: Body, joints: tuple[Joint, ...], q_start: np.ndarray) -> Constraints:
-    """The rows of every joint, with targets taken at ``q_start`` (module docstring)."""
+def build_constraints(body: Body, joints: tuple[Joint, ...], q_start: np.ndarray,
+                      mass_solve: MassSolve | None = None) -> Constraints:
+    """The independent rows of every joint, with targets taken at ``q_start`` (module
+    docstring); ``mass_solve`` applies Mr⁻¹ (default: a dense solve). Drive rows come last in
+    the elimination, so a drive another joint contradicts is found whatever the joints' order."""
+    every = _all_rows(body, joints, q_start)
+    if not every.count:
+        return every
+    solve = mass_solve or partial(np.linalg.solve, np.asarray(body.mass))
+    C = every.jacobian(every.directions)
+    order = [i for i in range(every.count) if i not in every.drives] + sorted(every.drives)
+    keep, implied = independent_rows(C, body.mass, solve, order)
+    for i, weights in implied.items():
+        if i in every.drives:
+            raise _contradicting_drive(joints, every, i, weights)
+    return _subset(every, keep)
+
+
+def _all_rows(body: Body, joints: tuple[Joint, ...], q_start: np.ndarray) -> Constraints:
+    """Every row of every joint, redundant or not, with targets taken at ``q_start``."""
     vectors: list[np.ndarray] = []
     index: list[int] = []
     directions: list[np.ndarray] = []
@@ -179,3 +215,76 @@ def build_constraints(body: Body, joints: tuple[Joint, ...], q_start: np.ndarray
                        directions=np.array(directions).reshape(-1, 3),
                        targets=np.zeros(len(index)), drives=drives, rows=tuple(rows))
     return replace(base, targets=base.values(q_start, base.directions_at(0.0)))
+
+
+def independent_rows(C: np.ndarray, mass: Any, mass_solve: MassSolve,
+                     order: list[int]) -> tuple[list[int], dict[int, dict[int, float]]]:
+    """(kept, implied): the rows of C (m × n) that are independent in the metric Mr⁻¹, taken
+    greedily in ``order`` (kept: ascending), and for each other row the weights a_k of the rows
+    kept before it that imply it (ĉ = Σ a_k ĉ_k for the rows normalised in that metric).
+
+    A Cholesky factorisation of the normalised Gram matrix Ĝ = D^-1/2 C Mr⁻¹ Cᵀ D^-1/2 in
+    ``order``: the pivot of row i is sin²θ_i, θ_i its angle (in the metric Mr⁻¹) to the rows
+    kept before it; a dependent row has a zero pivot. Rank tolerance: the computed Ĝ differs
+    from the exact one by E with |E_ij| ≤ η + (m + 2)ε, where η = max_j √(r_jᵀ Mr⁻¹ r_j / G_jj)
+    bounds the solve's error (r_j = Mr w_j − c_j, the residual of w_j = Mr⁻¹ c_j, by
+    Cauchy–Schwarz in the Mr⁻¹ metric) and (m + 2)ε the rounding of a length-m inner product
+    and of the normalisation; E moves the pivot of a row c = Σ a_k c_k by at most
+    [−a; 1]ᵀ E [−a; 1] ≤ (1 + |a|²) ‖E‖₂ ≤ (1 + |a|²) m (η + (m + 2)ε). A row is implied
+    when its pivot is below that.
+    """
+    m = C.shape[0]
+    W = np.asarray(mass_solve(C.T))
+    G = C @ W
+    G = 0.5 * (G + G.T)
+    scale = np.sqrt(np.diag(G))
+    R = np.asarray(mass @ W) - C.T
+    eta = float(np.sqrt(np.max(np.abs(np.einsum("ij,ij->j", R, np.asarray(mass_solve(R))))
+                               / np.diag(G))))
+    bound = m * (eta + (m + 2) * EPS)
+    G_hat = G / np.outer(scale, scale)
+    kept: list[int] = []
+    L = np.zeros((0, 0))
+    implied: dict[int, dict[int, float]] = {}
+    for i in order:
+        l = np.linalg.solve(L, G_hat[kept, i]) if kept else np.zeros(0)
+        a = np.linalg.solve(L.T, l) if kept else np.zeros(0)
+        pivot = 1.0 - float(l @ l)
+        if pivot <= (1.0 + float(a @ a)) * bound:
+            implied[i] = dict(zip(kept, a.tolist()))
+            continue
+        L = np.block([[L, np.zeros((len(kept), 1))], [l[None, :], np.sqrt([[pivot]])]])
+        kept.append(i)
+    return sorted(kept), implied
+
+
+def _subset(c: Constraints, keep: list[int]) -> Constraints:
+    """``c`` with only the rows ``keep`` (ascending) and the vectors they use; the others are
+    recorded as dropped."""
+    used = sorted(set(c.index[keep].tolist()))
+    renumber = {old: new for new, old in enumerate(used)}
+    vectors = c.vectors[used]
+    index = np.array([renumber[k] for k in c.index[keep].tolist()], dtype=int)
+    return Constraints(vectors=vectors, index=index, row_vectors=vectors[index],
+                       directions=c.directions[keep], targets=c.targets[keep],
+                       drives={new: c.drives[old] for new, old in enumerate(keep)
+                               if old in c.drives},
+                       rows=tuple(c.rows[i] for i in keep),
+                       dropped=tuple(r for i, r in enumerate(c.rows) if i not in keep))
+
+
+def _contradicting_drive(joints: tuple[Joint, ...], c: Constraints, row: int,
+                         weights: dict[int, float]) -> SceneError:
+    """SceneError: the drive's row ``row`` is implied by the rows ``weights`` of other joints."""
+    drive = c.rows[row]
+    largest = max((abs(w) for w in weights.values()), default=0.0)
+    others = list(dict.fromkeys(c.rows[k].joint for k, w in weights.items()
+                                if abs(w) > _NAMED_SHARE * largest
+                                and c.rows[k].joint != drive.joint))
+    position = next(k for k, j in enumerate(joints) if j.name == drive.joint)
+    named = " and ".join(repr(o) for o in others) or "its own rows"
+    return SceneError(
+        f"[scene] joints[{position}] ({drive.joint}): its drive about "
+        f"{np.round(drive.axis, 3).tolist()} contradicts joint {named}, which already holds "
+        f"the rotation about that axis; a drive must be the only joint holding it")
+

@@ -9,9 +9,18 @@ work ∫ −λ · (C q̇) dt (a drive's work; ~0 for fixed joints) and the dampi
     (T + V + V_g)(t) − (T + V + V_g)(0) − W_load − W_constraint + D
 
 is zero for the exact solution; the integrator's numerical dissipation (ρ∞ < 1) and its
-error show up in it (``results.energy_drift``).
+error show up in it (:attr:`Extremes.energy_drift`).
+
+Rows are filled into a buffer of :attr:`RecordPlan.block_rows` rows (``results.block_rows``)
+and handed to a sink
+(``results``: memory or a streamed file) when it is full, so what the recorder holds does
+not grow with the run; the maxima the summary reports are kept as the blocks pass.
 """
 from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -19,32 +28,122 @@ from gcms_fenicsx.dynamics.body import Body
 from gcms_fenicsx.dynamics.integrator import State, StepInfo
 from gcms_fenicsx.dynamics.joints import Constraints
 from gcms_fenicsx.dynamics.loads import ExternalForces
-from gcms_fenicsx.dynamics.results import ENERGY_NAMES, Trajectory
-from gcms_fenicsx.dynamics.scene import Outputs
+from gcms_fenicsx.dynamics.results import (ENERGY_NAMES, MULTIPLIERS, Series, Sink, block_rows,
+                                           series_layout)
+from gcms_fenicsx.dynamics.scene import Outputs, Scene
+
+
+@dataclass(frozen=True)
+class RecordPlan:
+    """What a run will record, known before it starts: the series, the number of steps and
+    of recorded rows (at most), the field snapshots (step indices) and the block size."""
+
+    layout: tuple[Series, ...]
+    steps: int
+    rows: int
+    snapshot_steps: frozenset[int]
+    nodes: int
+    block_rows: int
+
+    @property
+    def row_bytes(self) -> int:
+        return sum(s.row_bytes for s in self.layout)
+
+    @property
+    def series_bytes(self) -> int:
+        return self.rows * self.row_bytes
+
+    @property
+    def snapshot_bytes(self) -> int:
+        """The snapshots (time and N × 3 displacements each) and the nodes they refer to."""
+        per_node = 3 * 8
+        return len(self.snapshot_steps) * (8 + self.nodes * per_node) + (
+            self.nodes * per_node if self.snapshot_steps else 0)
+
+    @property
+    def total_bytes(self) -> int:
+        return self.series_bytes + self.snapshot_bytes
+
+
+def recorded_rows(steps: int, every: int) -> int:
+    """Rows of a run of ``steps`` steps recording steps 0, every, 2·every, … and the last."""
+    return steps // every + 1 + (1 if steps % every else 0)
+
+
+def record_plan(body: Body, constraints: Constraints, scene: Scene) -> RecordPlan:
+    """The plan of what ``scene`` records on ``body`` with ``constraints``."""
+    out, steps = scene.outputs, scene.steps
+    layout = series_layout(out.groups, out.energy,
+                           constraints.count if out.constraint_forces else 0,
+                           body.dofs if out.coordinates else 0)
+    rows = recorded_rows(steps, out.every)
+    snapshots = frozenset(min(steps, int(round(t / scene.time_step_s))) for t in out.field_times)
+    return RecordPlan(layout=layout, steps=steps, rows=rows, snapshot_steps=snapshots,
+                      nodes=len(body.nodes_m), block_rows=block_rows(layout, rows))
+
+
+class Extremes:
+    """The maxima over the recorded rows that the summary reports, kept as blocks pass."""
+
+    def __init__(self) -> None:
+        self.rows = 0
+        self.iterations = 0
+        self.energy = False
+        self.balance = 0.0          # max |balance error|
+        self.motion = -math.inf     # max (kinetic + elastic)
+        self.load_work = 0.0        # max |load work|
+        self.constraint_work = 0.0  # max |constraint work|
+        self.momentum0: np.ndarray | None = None
+        self.momentum_change = 0.0  # max |p − p0| (componentwise)
+
+    def update(self, block: Mapping[str, np.ndarray]) -> None:
+        self.rows += len(block["time"])
+        self.iterations = max(self.iterations, int(block["newton_iterations"].max(initial=0)))
+        p = block["momentum/linear"]
+        if self.momentum0 is None:
+            self.momentum0 = p[0].copy()
+        self.momentum_change = max(self.momentum_change,
+                                   float(np.abs(p - self.momentum0).max()))
+        if "energy/kinetic" in block:
+            self.energy = True
+            self.balance = max(self.balance, float(np.max(np.abs(block["energy/balance_error"]))))
+            self.motion = max(self.motion, float(np.max(block["energy/kinetic"]
+                                                        + block["energy/elastic"])))
+            self.load_work = max(self.load_work, float(np.max(np.abs(block["energy/load_work"]))))
+            self.constraint_work = max(self.constraint_work,
+                                       float(np.max(np.abs(block["energy/constraint_work"]))))
+
+    @property
+    def energy_drift(self) -> float | None:
+        """max |balance error| over the run / max (kinetic + elastic, |load work|, |constraint
+        work|): the relative energy drift; None without energies or with one row."""
+        if not self.energy or self.rows < 2:
+            return None
+        scale = max(self.motion, self.load_work, self.constraint_work)
+        return self.balance / scale if scale > 0 else self.balance
 
 
 class Recorder:
-    """Preallocated series for the steps ``0, every, 2·every, …`` and the last one."""
+    """Rows for the steps ``0, every, 2·every, …`` and the last one, handed to ``sink`` in
+    blocks of ``plan.block_rows``; field snapshots at ``plan.snapshot_steps``."""
 
     def __init__(self, body: Body, constraints: Constraints, forces: ExternalForces,
-                 outputs: Outputs, steps: int, time_step_s: float) -> None:
+                 outputs: Outputs, plan: RecordPlan, time_step_s: float, sink: Sink) -> None:
         self.body, self.c, self.forces, self.out = body, constraints, forces, outputs
+        self.plan, self.sink = plan, sink
         self.h = time_step_s
-        k = steps // outputs.every + 2
-        self.k = 0
-        self.time = np.zeros(k)
-        self.iterations = np.zeros(k, dtype=np.int32)
-        self.groups = {g: (body.groups[g], np.zeros((k, 3)), np.zeros((k, 3)))
-                       for g in outputs.groups}
-        self.energy = {name: np.zeros(k) for name in ENERGY_NAMES} if outputs.energy else {}
-        self.momentum = {"linear": np.zeros((k, 3)), "angular": np.zeros((k, 3))}
-        m = constraints.count if outputs.constraint_forces else 0
-        self.multipliers = np.zeros((k, m))
-        self.coordinates = ({"q": np.zeros((k, body.dofs)), "v": np.zeros((k, body.dofs))}
-                            if outputs.coordinates else {})
-        self.snapshot_steps = {min(steps, int(round(t / time_step_s))): t
-                               for t in outputs.field_times}
-        self.snapshots: list[tuple[float, np.ndarray]] = []
+        self.buffer = {s.name: np.zeros((plan.block_rows, *s.shape), s.dtype)
+                       for s in plan.layout}
+        b = self.buffer
+        self.filled = 0
+        self.last_time: float | None = None
+        self.extremes = Extremes()
+        self.groups = [(body.groups[g], b[f"groups/{g}/position"], b[f"groups/{g}/velocity"])
+                       for g in outputs.groups]
+        self.energy = {n: b[f"energy/{n}"] for n in ENERGY_NAMES} if outputs.energy else {}
+        self.multipliers = b[MULTIPLIERS] if b[MULTIPLIERS].shape[1] else None
+        self.coordinates = ((b["coordinates/q"], b["coordinates/v"]) if outputs.coordinates
+                            else None)
         self._work = np.zeros(3)     # load, constraint, damping
         self._power: np.ndarray | None = None
         self._initial_energy = 0.0
@@ -63,27 +162,26 @@ class Recorder:
             if self._power is not None:
                 self._work += 0.5 * self.h * (self._power + power)
             self._power = power
-        if index in self.snapshot_steps:
-            self.snapshots.append((s.t, self.body.displacement(s.q)))
+        if index in self.plan.snapshot_steps:
+            self.sink.snapshot(s.t, self.body.displacement(s.q))
         if last or index % self.out.every == 0:
             self.record(s, info)
 
     def record(self, s: State, info: StepInfo) -> None:
         """Write a row for a state already accounted for by :meth:`step`."""
-        k = self.k
-        self.k += 1
-        self.time[k] = s.t
-        self.iterations[k] = info.iterations
+        k = self.filled
+        b = self.buffer
+        b["time"][k] = s.t
+        b["newton_iterations"][k] = info.iterations
         Q, V = s.q.reshape(-1, 3), s.v.reshape(-1, 3)
-        for rows, pos, vel in self.groups.values():
+        for rows, pos, vel in self.groups:
             pos[k] = Q.T @ rows.position
             vel[k] = V.T @ rows.position
-        kinetic, self.momentum["linear"][k], self.momentum["angular"][k] = \
-            self.body.momenta(s.q, s.v)
-        if self.multipliers.shape[1]:
+        kinetic, b["momentum/linear"][k], b["momentum/angular"][k] = self.body.momenta(s.q, s.v)
+        if self.multipliers is not None:
             self.multipliers[k] = s.lam
-        for name, series in self.coordinates.items():
-            series[k] = s.q if name == "q" else s.v
+        if self.coordinates is not None:
+            self.coordinates[0][k], self.coordinates[1][k] = s.q, s.v
         if self.energy:
             e = self.energy
             e["kinetic"][k] = kinetic
@@ -91,23 +189,19 @@ class Recorder:
             e["gravity"][k] = self.forces.gravity_potential(s.q)
             e["load_work"][k], e["constraint_work"][k], e["damping_dissipation"][k] = self._work
             total = e["kinetic"][k] + e["elastic"][k] + e["gravity"][k]
-            if k == 0:
+            if self.last_time is None:
                 self._initial_energy = total
             e["balance_error"][k] = (total - self._initial_energy - self._work[0]
                                      - self._work[1] + self._work[2])
+        self.last_time = s.t
+        self.filled += 1
+        if self.filled == len(b["time"]):
+            self.flush()
 
-    def trajectory(self, rows: list[dict]) -> Trajectory:
-        k = self.k
-        snaps = self.snapshots
-        return Trajectory(
-            time=self.time[:k].copy(), newton_iterations=self.iterations[:k].copy(),
-            groups={g: {"position": p[:k].copy(), "velocity": v[:k].copy()}
-                    for g, (_, p, v) in self.groups.items()},
-            energy={n: a[:k].copy() for n, a in self.energy.items()},
-            momentum={n: a[:k].copy() for n, a in self.momentum.items()},
-            multipliers=self.multipliers[:k].copy(),
-            rows=rows if self.multipliers.shape[1] else [],
-            coordinates={n: a[:k].copy() for n, a in self.coordinates.items()},
-            field_time=np.array([t for t, _ in snaps]),
-            displacement=(np.array([d for _, d in snaps]) if snaps else np.zeros((0, 0, 3))),
-            nodes_m=self.body.nodes_m if snaps else np.zeros((0, 3)))
+    def flush(self) -> None:
+        """Hand the buffered rows to the sink."""
+        if self.filled:
+            block = {name: rows[:self.filled] for name, rows in self.buffer.items()}
+            self.extremes.update(block)
+            self.sink.append(block)
+            self.filled = 0

@@ -12,7 +12,22 @@ import numpy as np
 
 
 class InvertedBodyError(ArithmeticError):
-    """The body's affine map has a non-positive determinant: no rotation can be taken from it."""
+    """The body's affine map has a non-positive determinant or is degenerate: no rotation can be
+    taken from it. ``det`` and ``singular_values`` are the map's; :attr:`numbers` says them."""
+
+    def __init__(self, det: float, singular_values: np.ndarray) -> None:
+        self.det = float(det)
+        self.singular_values = tuple(float(s) for s in singular_values)
+        super().__init__(f"affine map of the body has {self.numbers}: the body is inverted or "
+                         "collapsed")
+
+    def __reduce__(self):  # picklable, so MPI can send it from the rank that saw it
+        return (type(self), (self.det, self.singular_values))
+
+    @property
+    def numbers(self) -> str:
+        s = self.singular_values
+        return f"det = {self.det:.3e} (singular values {s[0]:.3e}, {s[1]:.3e}, {s[2]:.3e})"
 
 
 #: [w]× = (w @ _SKEW).reshape(3, 3): row k holds the flattened [e_k]×.
@@ -65,9 +80,7 @@ def polar(A: np.ndarray) -> Polar:
     W, s, Vt = np.linalg.svd(A)
     R = W @ Vt
     if _det3(R) < 0.0 or not s[2] > 1e-12 * s[0]:
-        raise InvertedBodyError(f"affine map of the body has det = {np.linalg.det(A):.3e} "
-                                f"(singular values {s[0]:.3e}, {s[1]:.3e}, {s[2]:.3e}): the "
-                                "body is inverted or collapsed")
+        raise InvertedBodyError(np.linalg.det(A), s)
     return Polar(R, s, Vt)
 
 

@@ -14,7 +14,8 @@ damping = { alpha = 0.0, beta = 0.0 }   # co-rotated Rayleigh: α Mr + β Kr on 
                                         # (relative to the body frame: a jointed body whose
                                         # frame follows its bending is damped by β, hardly α)
 solver = { tolerance = 1e-10, max_iterations = 25, jacobian = "rotated" }
-initial = { velocity = [0, 0, 0], angular_velocity = [0, 0, 0], mode = 1, amplitude = 1e-3 }
+initial = { velocity = [0, 0, 0], angular_velocity = [0, 0, 0], mode = 1, amplitude = 1e-3,
+            direction = [0, 0, 1] }
 outputs = { groups = ["end_xL"], every = 1, energy = true, constraint_forces = true,
             coordinates = false, field_times = [0.5] }
 
@@ -30,6 +31,27 @@ force = [0.0, 0.0, -10.0]      # N, on the group's weighted mean position
 time = "harmonic"              # constant, ramp or harmonic
 frequency_hz = 20.0
 ```
+
+The initial mode shape (``dynamics.initial``): ``mode = N`` is the N-th elastic eigenvector of
+(Kr, Mr), scaled so that its largest nodal displacement is ``amplitude``. An eigenvector has no
+sign, and within a repeated eigenvalue (a square beam's bending pair) no direction either: the
+solver returns any basis of the pair. So:
+
+- with ``direction = [x, y, z]`` the shape is the combination of the mode's cluster — the
+  elastic eigenvalues within a relative split of ``CLUSTER_SPLIT`` = 1e-3 of each other,
+  chained, the bound ``modes.json`` uses for near-repeated clusters — that moves farthest along
+  the direction: a ∝ D_iᵀ d at the node i = argmax_i ‖D_iᵀ d‖ (D_i the 3 × k displacement of the
+  cluster's k eigenvectors at node i, d the unit direction), so the displacement there, D_i a,
+  has the largest component along d any node and any unit combination reach, and it is
+  positive. It does not depend on the basis the solver returned for the cluster.
+- without it, the sign of the eigenvector is fixed so that the largest nodal displacement's
+  largest-magnitude component is positive (and within a repeated pair the solver's basis
+  stands: give a direction when it matters).
+
+Ties: nodal values within 1 % (``initial.TIE``) of the largest count as equal — a symmetric
+body's mirror nodes, such as the two ends of a beam's antisymmetric mode, differ only by its
+mesh — and the node first in (x, y, z) order is taken (likewise the first of tied components),
+so near-identical bodies get the same shape and sign.
 """
 from __future__ import annotations
 
@@ -46,6 +68,10 @@ class SceneError(ValueError):
     """A scene that does not fit the body (an unknown group, a joint the group cannot carry)."""
 
 LOAD_TIMES = ("constant", "ramp", "harmonic")
+#: Rotation per step of a drive above which a warning is given. The default crankshaft scene
+#: (docs/stability.md) drifts in energy by 9e-5 at 0.016 rad per step, 6e-4 at 0.039 and
+#: 4e-2 at 0.16: second order in the step, with a large constant.
+DRIVE_STEP_WARNING_RAD = 0.05
 JACOBIANS = ("rotated", "exact", "assembled")
 
 
@@ -106,12 +132,14 @@ class Load:
 class Initial:
     """Initial state: a rigid velocity field v + ω × (x − c), and optionally an elastic
     deformation in one elastic mode of the reduced model, scaled to a largest nodal
-    displacement of ``amplitude_m``."""
+    displacement of ``amplitude_m``, oriented along the unit ``direction`` if given (module
+    docstring)."""
 
     velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     angular_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     mode: int | None = None
     amplitude_m: float = 0.0
+    direction: tuple[float, float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -160,6 +188,17 @@ class Scene:
         """Steps of time_step to reach end_time: the run ends at the first step at or beyond
         it (exactly on it when end_time is a multiple of time_step, to 1e-9 of a step)."""
         return max(1, math.ceil(self.end_time_s / self.time_step_s - 1e-9))
+
+    def warnings(self) -> list[str]:
+        """What in the scene predicts an inaccurate run, one line each: a drive that turns its
+        body more than DRIVE_STEP_WARNING_RAD per step."""
+        return [f"joint {j.name!r} turns its group {j.drive.angular_velocity * self.time_step_s:.3g} "
+                f"rad per step (drive {j.drive.angular_velocity:g} rad/s, time_step "
+                f"{self.time_step_s:g} s): more than {DRIVE_STEP_WARNING_RAD:g} rad, where the "
+                "energy error grows fast; a time_step of at most "
+                f"{DRIVE_STEP_WARNING_RAD / abs(j.drive.angular_velocity):.2g} s keeps below it"
+                for j in self.joints if j.drive is not None
+                and abs(j.drive.angular_velocity) * self.time_step_s > DRIVE_STEP_WARNING_RAD]
 
     def check_groups(self, known: Iterable[str]) -> None:
         """SceneError naming the first joint, load or output whose group is not in ``known``."""
@@ -262,12 +301,14 @@ def parse_scene(raw: Mapping[str, Any] | None) -> Scene | None:
 
     i = Table("scene.initial", t.subtable("initial"))
     mode = i.integer("mode", None, low=1) if i.has("mode") else None
+    for key in ("amplitude", "direction"):
+        if mode is None and i.has(key):
+            raise i.error(key, i.get(key), "needs mode = N: the elastic mode it shapes")
     initial = Initial(velocity=i.vector("velocity", (0.0, 0.0, 0.0)),
                       angular_velocity=i.vector("angular_velocity", (0.0, 0.0, 0.0)),
                       mode=mode,
-                      amplitude_m=i.positive("amplitude") if mode is not None else 0.0)
-    if mode is None and i.has("amplitude"):
-        raise i.error("amplitude", i.get("amplitude"), "needs mode = N: the elastic mode it scales")
+                      amplitude_m=i.positive("amplitude") if mode is not None else 0.0,
+                      direction=_axis(i, "direction") if i.has("direction") else None)
     i.finish()
 
     o = Table("scene.outputs", t.subtable("outputs"))

@@ -1,43 +1,52 @@
 """A scene on a body: initial state, joints, loads, the time loop, and what it recorded.
 
-``simulate(model, scene)`` runs a scene on an exported reduced model; ``simulate_body`` on
-any :class:`~gcms_fenicsx.dynamics.body.Body` (the full-order reference uses it with sparse
-matrices). A failure inside the run — Newton not converging, a non-finite or inverted
-state — does not raise: the results up to the last converged step are returned, marked
-incomplete, with the message.
+``simulate(model, scene)`` runs a scene on an exported reduced model and keeps what it
+records in memory; ``simulate_to_file(model, scene, path)`` streams it into ``results.h5``
+instead (its memory does not grow with the run); ``simulate_body`` runs on any
+:class:`~gcms_fenicsx.dynamics.body.Body` (the full-order reference uses it with sparse
+matrices). Before anything is allocated or stepped, the size of the results is estimated and
+a run whose results exceed the free disk space (file) or the available memory (in memory) is
+refused (``budget``). A failure inside the run — Newton not converging or diverging, a
+non-finite state — does not raise: the results up to the last converged step are returned
+(or written), marked incomplete, with the message.
+
+Every number of the summary is finite or None (JSON without NaN or Infinity).
 """
 from __future__ import annotations
 
 import time
-from dataclasses import asdict
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Callable
 
+import h5py
 import numpy as np
 
-from gcms_fenicsx.dynamics.body import Body, body_from_reduced
+from gcms_fenicsx.dynamics.body import Body, body_from_reduced, elastic_modes
+from gcms_fenicsx.dynamics.budget import (Capacity, check_capacity, disk_capacity,
+                                          format_bytes, format_duration, memory_capacity)
 from gcms_fenicsx.dynamics.corotated import elastic_state
+from gcms_fenicsx.dynamics.initial import initial_coordinates
 from gcms_fenicsx.dynamics.integrator import (Elastic, Factorize, GeneralizedAlpha,
-                                              IntegrationError, dense_factorization)
-from gcms_fenicsx.dynamics.joints import build_constraints
-from gcms_fenicsx.dynamics.loads import external_forces
-from gcms_fenicsx.dynamics.recorder import Recorder
-from gcms_fenicsx.dynamics.results import Trajectory, energy_drift
+                                              IntegrationError, State, StepInfo,
+                                              dense_factorization, mass_factorization)
+from gcms_fenicsx.dynamics.joints import Constraints, build_constraints
+from gcms_fenicsx.dynamics.loads import ExternalForces, external_forces
+from gcms_fenicsx.dynamics.recorder import Extremes, Recorder, RecordPlan, record_plan
+from gcms_fenicsx.dynamics.results import (MemorySink, ResultsWriter, RunInfo, Sink,
+                                           Trajectory)
 from gcms_fenicsx.dynamics.rotation import InvertedBodyError
-from gcms_fenicsx.dynamics.scene import Initial, Scene, SceneError
+from gcms_fenicsx.dynamics.scene import Scene, SceneError
+from gcms_fenicsx.outputs import atomic_file, finite_json
 from gcms_fenicsx.progress import Progress, quiet
 from gcms_fenicsx.reduced_model import ReducedModel
 
+__all__ = ["elastic_modes", "initial_coordinates", "modal_history", "simulate",
+           "simulate_body", "simulate_to_file"]
+
 PROGRESS_INTERVAL_S = 2.0
-
-
-def elastic_modes(body: Body) -> tuple[np.ndarray, np.ndarray]:
-    """Eigenvalues and Mr-orthonormal eigenvectors of (Kr, Mr), ascending (dense bodies).
-
-    With L Lᵀ = Mr: L⁻¹ Kr L⁻ᵀ y = λ y and ψ = L⁻ᵀ y. The first six are the rigid modes.
-    """
-    L_inv = np.linalg.inv(np.linalg.cholesky(np.asarray(body.mass)))
-    A = L_inv @ np.asarray(body.stiffness) @ L_inv.T
-    lam, Y = np.linalg.eigh(0.5 * (A + A.T))
-    return lam, L_inv.T @ Y
+#: Opens the sink a run records into, once its plan is known.
+OpenSink = Callable[[RecordPlan], Sink]
 
 
 def modal_history(body: Body, q: np.ndarray, mode: int) -> np.ndarray:
@@ -49,63 +58,141 @@ def modal_history(body: Body, q: np.ndarray, mode: int) -> np.ndarray:
     return np.array([w @ (elastic_state(body, qk).local.ravel() - body.q0) for qk in q])
 
 
-def initial_coordinates(body: Body, initial: Initial) -> np.ndarray:
-    """q0, plus the requested elastic mode scaled to a largest nodal displacement of amplitude."""
-    if initial.mode is None:
-        return body.q0.copy()
-    lam, psi = elastic_modes(body)
-    index = 5 + initial.mode
-    if index >= len(lam):
-        raise SceneError(f"[scene.initial] mode = {initial.mode}: the reduced model has "
-                         f"{len(lam) - 6} elastic modes")
-    shape = psi[:, index]
-    largest = float(np.max(np.linalg.norm(body.displacement(body.q0 + shape), axis=1)))
-    return body.q0 + initial.amplitude_m / largest * shape
-
-
 def simulate_body(body: Body, scene: Scene, *, factorize: Factorize = dense_factorization,
                   elastic: Elastic | None = None, progress: Progress = quiet,
                   model_hash: str = "") -> tuple[Trajectory, dict]:
-    """Run ``scene`` on ``body``: the recorded trajectory and the summary (``summary.json``).
+    """Run ``scene`` on ``body``: the recorded trajectory (in memory) and the summary
+    (``summary.json``). ``factorize`` and ``elastic`` as in
+    :class:`~gcms_fenicsx.dynamics.integrator.GeneralizedAlpha`."""
+    def open_sink(plan: RecordPlan) -> Sink:
+        return MemorySink(plan.layout, plan.rows, body.nodes_m if plan.snapshot_steps else None)
 
-    ``factorize`` and ``elastic`` as in :class:`~gcms_fenicsx.dynamics.integrator.GeneralizedAlpha`.
-    """
+    summary, traj = _run(body, scene, open_sink, memory_capacity(), factorize=factorize,
+                         elastic=elastic, progress=progress, model_hash=model_hash)
+    assert traj is not None
+    return traj, summary
+
+
+def simulate(model: ReducedModel, scene: Scene,
+             progress: Progress = quiet) -> tuple[Trajectory, dict]:
+    """Run ``scene`` on an exported reduced model, keeping the results in memory."""
+    return simulate_body(body_from_reduced(model), scene, progress=progress,
+                         model_hash=model.input_hash)
+
+
+def simulate_to_file(model: ReducedModel, scene: Scene, path: Path,
+                     progress: Progress = quiet) -> dict:
+    """Run ``scene`` on an exported reduced model, streaming the results into ``path``
+    (a temporary file beside it, renamed when the run ends, complete or not); the summary."""
+    body = body_from_reduced(model)
+    with atomic_file(path) as tmp, h5py.File(tmp, "w") as f:
+        def open_sink(plan: RecordPlan) -> Sink:
+            return ResultsWriter(f, plan.layout, plan.block_rows,
+                                 body.nodes_m if plan.snapshot_steps else None)
+
+        summary, _ = _run(body, scene, open_sink, disk_capacity(tmp.parent),
+                          factorize=dense_factorization, elastic=None, progress=progress,
+                          model_hash=model.input_hash)
+    return summary
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """A run set up and checked, before its first step: the joints' independent rows, what it
+    will record, the stepper and the consistent initial state."""
+
+    constraints: Constraints
+    plan: RecordPlan
+    forces: ExternalForces
+    integrator: GeneralizedAlpha
+    state: State
+    info: StepInfo
+    kinetic_given_j: float   # of the initial velocity asked for
+    kinetic_kept_j: float    # of the one the joints allow
+
+
+@dataclass(frozen=True)
+class Stepped:
+    """How the time loop ended: the last converged state and what its step left."""
+
+    complete: bool
+    message: str
+    steps: int
+    newton_iterations: int
+    wall_s: float
+    state: State
+    info: StepInfo
+
+
+def _run(body: Body, scene: Scene, open_sink: OpenSink, capacity: Capacity, *,
+         factorize: Factorize, elastic: Elastic | None, progress: Progress,
+         model_hash: str) -> tuple[dict, Trajectory | None]:
+    """Set up, step, record into the sink ``open_sink`` gives: the summary and what the sink
+    returns when closed."""
     scene.check_groups(body.groups)
     t_setup = time.perf_counter()
+    run = _prepare(body, scene, capacity, factorize, elastic, progress)
+    sink = open_sink(run.plan)
+    recorder = Recorder(body, run.constraints, run.forces, scene.outputs, run.plan,
+                        scene.time_step_s, sink)
+    recorder.step(0, run.state, run.info)
+    setup_s = time.perf_counter() - t_setup
+    stepped = _march(run, recorder, scene, progress)
+    if not stepped.complete and recorder.last_time != stepped.state.t:
+        recorder.record(stepped.state, stepped.info)   # the last converged state
+    recorder.flush()
+    rows = finite_json([asdict(r) for r in run.constraints.rows]) \
+        if scene.outputs.constraint_forces and run.constraints.count else []  # as JSON reads
+    traj = sink.close(RunInfo(stepped.complete, stepped.message, model_hash, asdict(scene), rows))
+    return _summary(body, scene, run, stepped, recorder.extremes, setup_s, model_hash), traj
+
+
+def _prepare(body: Body, scene: Scene, capacity: Capacity, factorize: Factorize,
+             elastic: Elastic | None, progress: Progress) -> Prepared:
+    """Initial coordinates, Mr⁻¹, the independent joint rows, the results' budget (refused
+    before anything is allocated if over ``capacity``), the stepper and the initial state."""
+    for warning in scene.warnings():
+        progress(f"warning: {warning}")
     q = initial_coordinates(body, scene.initial)
-    constraints = build_constraints(body, scene.joints, q)
+    mass_solve = mass_factorization(body, factorize)
+    constraints = build_constraints(body, scene.joints, q, mass_solve)
+    if constraints.dropped:
+        progress(f"joints: {len(constraints.dropped)} constraint rows dropped, implied by the "
+                 f"rows of earlier joints: {_rows_text(constraints)}")
+    plan = record_plan(body, constraints, scene)
+    check_capacity(plan, capacity, scene)
+    progress(f"simulate: {plan.steps} steps of {scene.time_step_s:g} s, {body.dofs} "
+             f"coordinates, {constraints.count} constraint rows; {plan.rows} recorded rows and "
+             f"{len(plan.snapshot_steps)} field snapshots, {format_bytes(plan.total_bytes)} "
+             f"(limit {format_bytes(capacity.bytes)} {capacity.what})")
     forces = external_forces(body, scene.gravity, scene.loads)
     integrator = GeneralizedAlpha(body, constraints, forces, scene.time_step_s, scene.rho_inf,
                                   (scene.damping_alpha, scene.damping_beta), scene.solver,
-                                  factorize, elastic)
+                                  factorize, elastic, mass_solve)
     v_rigid = body.rigid_velocity(q, np.array(scene.initial.velocity),
                                   np.array(scene.initial.angular_velocity))
     v = integrator.project_velocity(0.0, q, v_rigid)
-    kinetic_given = 0.5 * float(v_rigid @ (body.mass @ v_rigid))
-    kinetic_kept = 0.5 * float(v @ (body.mass @ v))
     try:
         state, info = integrator.start(q, v)
     except InvertedBodyError as exc:
         raise SceneError(f"[scene.initial] the initial state inverts the body: {exc}; lower "
                          "amplitude") from exc
-    steps = scene.steps
-    recorder = Recorder(body, constraints, forces, scene.outputs, steps, scene.time_step_s)
-    recorder.step(0, state, info)
-    setup_s = time.perf_counter() - t_setup
+    return Prepared(constraints=constraints, plan=plan, forces=forces, integrator=integrator,
+                    state=state, info=info,
+                    kinetic_given_j=0.5 * float(v_rigid @ (body.mass @ v_rigid)),
+                    kinetic_kept_j=0.5 * float(v @ (body.mass @ v)))
 
-    progress(f"simulate: {steps} steps of {scene.time_step_s:g} s, {body.dofs} coordinates, "
-           f"{constraints.count} constraint rows")
-    complete, message, done = True, "", 0
-    iterations = 0
+
+def _march(run: Prepared, recorder: Recorder, scene: Scene, progress: Progress) -> Stepped:
+    """The time loop: step, record, report progress; a failed step ends it (incomplete)."""
+    state, info, steps = run.state, run.info, run.plan.steps
+    complete, message, done, iterations = True, "", 0, 0
     start = last_report = time.perf_counter()
     for index in range(1, steps + 1):
         try:
-            state, info = integrator.step(state)
+            state, info = run.integrator.step(state)
         except IntegrationError as exc:
             complete, message = False, str(exc)
-            break
-        except InvertedBodyError as exc:
-            complete, message = False, f"at t = {state.t + scene.time_step_s:.6g} s: {exc}"
             break
         done = index
         iterations += info.iterations
@@ -113,22 +200,22 @@ def simulate_body(body: Body, scene: Scene, *, factorize: Factorize = dense_fact
         now = time.perf_counter()
         if now - last_report > PROGRESS_INTERVAL_S:
             last_report = now
-            progress(f"simulate: t = {state.t:.4g} / {scene.end_time_s:g} s ({index} steps, "
-                   f"{index / (now - start):.0f} steps/s)")
-    wall = time.perf_counter() - start
-    if not complete and recorder.time[recorder.k - 1] != state.t:
-        recorder.record(state, info)   # the last converged state, not yet written
-    rows = [asdict(r) for r in constraints.rows]
-    traj = recorder.trajectory(rows)
-    traj.complete, traj.message, traj.model_hash = complete, message, model_hash
-    traj.scene = asdict(scene)
-    p = traj.momentum["linear"]
-    summary = {
-        "complete": complete,
-        "message": message,
+            progress(_progress_line(state.t, scene.end_time_s, index, steps, now - start))
+    return Stepped(complete=complete, message=message, steps=done,
+                   newton_iterations=iterations, wall_s=time.perf_counter() - start,
+                   state=state, info=info)
+
+
+def _summary(body: Body, scene: Scene, run: Prepared, stepped: Stepped, extremes: Extremes,
+             setup_s: float, model_hash: str) -> dict:
+    """``summary.json``: finite numbers or None."""
+    done, wall = stepped.steps, stepped.wall_s
+    return finite_json({
+        "complete": stepped.complete,
+        "message": stepped.message,
         "steps": done,
-        "steps_planned": steps,
-        "time_reached_s": float(state.t),
+        "steps_planned": run.plan.steps,
+        "time_reached_s": float(stepped.state.t),
         "end_time_s": scene.end_time_s,
         "time_step_s": scene.time_step_s,
         "rho_inf": scene.rho_inf,
@@ -137,21 +224,30 @@ def simulate_body(body: Body, scene: Scene, *, factorize: Factorize = dense_fact
         "steps_per_second": done / wall if done and wall > 0 else None,
         "time_per_step_us": 1e6 * wall / done if done else None,
         "reduced_dofs": body.dofs,
-        "constraint_rows": constraints.count,
-        "newton_iterations_mean": iterations / done if done else None,
-        "newton_iterations_max": int(traj.newton_iterations.max(initial=0)),
+        "constraint_rows": run.constraints.count,
+        "constraint_rows_dropped": [asdict(r) for r in run.constraints.dropped],
+        "recorded_rows": extremes.rows,
+        "newton_iterations_mean": stepped.newton_iterations / done if done else None,
+        "newton_iterations_max": extremes.iterations,
         "jacobian": scene.solver.jacobian,
-        "energy_drift_rel": energy_drift(traj.energy) if len(traj.time) > 1 else None,
-        "linear_momentum_change": float(np.abs(p - p[0]).max()) if len(p) else 0.0,
-        "initial_kinetic_energy_j": kinetic_kept,
-        "initial_kinetic_energy_removed_by_joints_j": kinetic_given - kinetic_kept,
+        "energy_drift_rel": extremes.energy_drift,
+        "linear_momentum_change": extremes.momentum_change,
+        "initial_kinetic_energy_j": run.kinetic_kept_j,
+        "initial_kinetic_energy_removed_by_joints_j": run.kinetic_given_j - run.kinetic_kept_j,
         "model_hash": model_hash,
-    }
-    return traj, summary
+        "warnings": scene.warnings(),
+    })
 
 
-def simulate(model: ReducedModel, scene: Scene,
-             progress: Progress = quiet) -> tuple[Trajectory, dict]:
-    """Run ``scene`` on an exported reduced model."""
-    return simulate_body(body_from_reduced(model), scene, progress=progress,
-                         model_hash=model.input_hash)
+def _rows_text(constraints: Constraints) -> str:
+    """The dropped rows, as "joint kind [axis], …"."""
+    return ", ".join(f"{r.joint} {r.kind} {np.round(r.axis, 3).tolist()}"
+                     for r in constraints.dropped)
+
+
+def _progress_line(t: float, end_time: float, index: int, steps: int, elapsed: float) -> str:
+    """Where a run is, how fast it goes and when it ends (the rate so far)."""
+    rate = index / elapsed if elapsed > 0 else float("inf")
+    return (f"simulate: t = {t:.4g} / {end_time:g} s ({index} of {steps} steps, {rate:.0f} "
+            f"steps/s, ETA {format_duration((steps - index) / rate)})")
+

@@ -1,0 +1,110 @@
+"""The initial coordinates of a scene: q0 plus, on request, one elastic mode shape with a
+defined orientation (``[scene.initial]``; the rule is in ``scene``'s docstring).
+
+An eigenvector of (Kr, Mr) is defined up to its sign, and within a repeated eigenvalue up to
+a rotation of the cluster's basis: the eigen-solver of two near-identical bodies returns
+different bases of a square beam's bending pair, so "mode 1" would start the one bending
+along y and the other at 150° from it. Here the shape is made a function of the cluster's
+subspace and of the requested direction only.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from gcms_fenicsx.dynamics.body import Body, elastic_modes
+from gcms_fenicsx.dynamics.scene import Initial, SceneError
+
+#: Neighbouring elastic eigenvalues whose relative split (λ_{k+1} − λ_k)/λ_{k+1} is below this
+#: form one cluster (chained), as in ``modes.json``'s near-repeated clusters (eigen.CLUSTER_SPLIT):
+#: a mesh splits a square beam's bending pairs by 1e-6..1e-5, while the distinct modes of the
+#: bodies here lie at least 0.19 apart.
+CLUSTER_SPLIT = 1e-3
+#: A direction along which the cluster's largest reach is below this fraction of its largest
+#: nodal displacement is one the mode does not move along: refused.
+MIN_REACH = 1e-6
+#: Nodal values within this fraction of the largest count as tied: the mirror nodes of a
+#: symmetric body (the two ends of a beam's antisymmetric mode) differ only by mesh asymmetry,
+#: 1e-5..1e-3 on the square beams, and the tie goes to the node first in (x, y, z) order.
+TIE = 1e-2
+#: Coordinates are compared in that order to this fraction of the body's size (round-off in
+#: the mesh's coordinates does not decide).
+POSITION_RESOLUTION = 1e-6
+RIGID_MODES = 6
+
+
+def mode_cluster(lam: np.ndarray, index: int) -> range:
+    """The indices of the elastic eigenvalues chained to ``lam[index]`` by relative splits
+    below ``CLUSTER_SPLIT`` (``lam`` ascending, the first six rigid)."""
+    first, last = index, index
+    while first > RIGID_MODES and lam[first] - lam[first - 1] <= CLUSTER_SPLIT * lam[first]:
+        first -= 1
+    while last + 1 < len(lam) and lam[last + 1] - lam[last] <= CLUSTER_SPLIT * lam[last + 1]:
+        last += 1
+    return range(first, last + 1)
+
+
+def nodal_displacements(body: Body, shapes: np.ndarray) -> np.ndarray:
+    """D (N × 3 × k): the nodal displacement F Ψ_j of each coordinate direction ψ_j (n × k)."""
+    k = shapes.shape[1]
+    Psi = shapes.reshape(body.field_count, 3 * k)
+    return np.asarray(body.node_fields @ Psi).reshape(-1, 3, k)
+
+
+def first_of_largest(values: np.ndarray, body: Body) -> int:
+    """The node of the largest of ``values`` (one per node); nodes within ``TIE`` of it are
+    tied, and the first of them in (x, y, z) order wins."""
+    tied = np.flatnonzero(values >= (1.0 - TIE) * values.max())
+    key = np.round(body.nodes_m[tied] / (POSITION_RESOLUTION * body.size_m))
+    return int(tied[np.lexsort(key.T[::-1])[0]])
+
+
+def first_of_largest_component(vector: np.ndarray) -> int:
+    """The component of largest magnitude; within ``TIE`` of it, the first (x, y, z)."""
+    size = np.abs(vector)
+    return int(np.flatnonzero(size >= (1.0 - TIE) * size.max())[0])
+
+
+def oriented_shape(body: Body, shapes: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """Ψ a with a ∝ D_iᵀ d at i = argmax_i ‖D_iᵀ d‖ (scene docstring; ties:
+    :func:`first_of_largest`): the unit combination of the Mr-orthonormal ``shapes`` (n × k)
+    whose displacement at some node reaches farthest along the unit ``direction``;
+    SceneError if no node moves along it."""
+    D = nodal_displacements(body, shapes)
+    reach = np.einsum("nik,i->nk", D, direction)          # D_iᵀ d for every node
+    lengths = np.linalg.norm(reach, axis=1)
+    node = first_of_largest(lengths, body)
+    largest = float(np.linalg.norm(D, axis=1).max(initial=0.0))  # any unit a moves ≤ ‖D_i‖₂
+    if not lengths[node] > MIN_REACH * largest:
+        raise SceneError(
+            f"[scene.initial] direction = {np.round(direction, 4).tolist()}: the mode does not "
+            f"move along it (largest reach {lengths[node]:.1e} m against nodal displacements "
+            f"up to {largest:.1e} m per unit coordinate); give a direction it moves in")
+    return shapes @ (reach[node] / lengths[node])
+
+
+def signed_shape(body: Body, shape: np.ndarray) -> np.ndarray:
+    """``shape`` or −``shape``: the one whose largest nodal displacement's largest-magnitude
+    component is positive (ties: :func:`first_of_largest`, :func:`first_of_largest_component`)."""
+    D = nodal_displacements(body, shape[:, None])[:, :, 0]
+    displacement = D[first_of_largest(np.linalg.norm(D, axis=1), body)]
+    return shape if displacement[first_of_largest_component(displacement)] >= 0.0 else -shape
+
+
+def initial_coordinates(body: Body, initial: Initial) -> np.ndarray:
+    """q0, plus the requested elastic mode (oriented as the scene docstring says) scaled to a
+    largest nodal displacement of ``amplitude``."""
+    if initial.mode is None:
+        return body.q0.copy()
+    lam, psi = elastic_modes(body)
+    index = RIGID_MODES - 1 + initial.mode
+    if index >= len(lam):
+        raise SceneError(f"[scene.initial] mode = {initial.mode}: the reduced model has "
+                         f"{len(lam) - RIGID_MODES} elastic modes")
+    if initial.direction is None:
+        shape = signed_shape(body, psi[:, index])
+    else:
+        cluster = mode_cluster(lam, index)
+        shape = oriented_shape(body, psi[:, cluster.start:cluster.stop],
+                               np.asarray(initial.direction, float))
+    largest = float(np.max(np.linalg.norm(body.displacement(body.q0 + shape), axis=1)))
+    return body.q0 + initial.amplitude_m / largest * shape
