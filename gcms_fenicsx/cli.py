@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import signal
 import sys
 import time
 from pathlib import Path
@@ -47,17 +48,26 @@ def main(argv: list[str] | None = None) -> int:
 
     from gcms_fenicsx.dynamics.scene import SceneError
     from gcms_fenicsx.errors import ComputationFailed
+    from gcms_fenicsx.interrupts import Interrupted, interruptible
     from gcms_fenicsx.reduced_model import ReducedModelError
     from gcms_fenicsx.simulation import SimulationIncomplete, simulate_command
 
     comm = MPI.COMM_WORLD
     t0 = time.perf_counter()
+    if args.command == "simulate":  # reuses a cached reduced model without dolfinx
+        command = simulate_command
+    else:  # heavy imports (dolfinx, PETSc, Gmsh) only for the finite-element commands
+        from gcms_fenicsx import commands
+        command = getattr(commands, args.command)
     try:
-        if args.command == "simulate":  # reuses a cached reduced model without dolfinx
-            summary = simulate_command(args.config, args.out)
-        else:  # heavy imports (dolfinx, PETSc) only for the finite-element commands
-            from gcms_fenicsx import commands
-            summary = getattr(commands, args.command)(args.config, args.out)
+        with interruptible():  # after Gmsh's import, which resets SIGINT
+            summary = command(args.config, args.out)
+    except (Interrupted, KeyboardInterrupt) as exc:
+        signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
+        if comm.rank == 0:
+            print(f"gcms {args.command}: interrupted ({signal.Signals(signum).name}); "
+                  f"{args.out} is as it was", file=sys.stderr)
+        return 128 + signum
     except (ConfigError, SceneError, ReducedModelError) as exc:
         if comm.rank == 0:
             print(f"gcms {args.command}: error: {exc}", file=sys.stderr)

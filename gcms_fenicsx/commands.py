@@ -15,8 +15,11 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from gcms_fenicsx import eigen, fe
+from geometry import estimate_mesh
+
+from gcms_fenicsx import budget, eigen, fe
 from gcms_fenicsx.config import StudyConfig, load_config
+from gcms_fenicsx.files import MESH_FILES, MODES_FILES, REDUCE_FILES, SIMULATION_FILES
 from gcms_fenicsx.mesh import BodyMesh
 from gcms_fenicsx.modes_io import frequency_table, modes_report, write_mode_shapes
 from gcms_fenicsx.outputs import on_rank0, staged_output, write_json
@@ -52,11 +55,20 @@ def mesh(config: Path | None, out: Path) -> str:
     """``gcms mesh``: mesh.msh and mesh.json."""
     cfg = load_config(config)
     comm = MPI.COMM_WORLD
-    with staged_output(out, comm) as folder:
+    with staged_output(out, comm, MESH_FILES) as folder:
         stage, body = meshed_body(cfg, folder, progress_printer(comm.rank), comm)
         Ms, nodes = fe.assemble_scalar_mass(body.mesh)
         report = _write_mesh_json(cfg, folder, stage, Ms, nodes, 1.0, comm)
     return _mesh_summary(report)
+
+
+def _check_memory(cfg: StudyConfig, dofs: int, nodes: int, wanted: int) -> None:
+    """Refuse (ConfigError) a solve and reduction of ``wanted`` modes on ``dofs`` degrees of
+    freedom that would need more memory than this machine has (``budget``)."""
+    modes_key = ("[modes] count", cfg.modes.count) if cfg.modes.count is not None else \
+        ("[modes] max_frequency_hz", cfg.modes.max_frequency_hz)
+    budget.check_memory(budget.memory_estimate(dofs, wanted, nodes),
+                        ("[mesh] size", cfg.mesh.size), modes_key)
 
 
 @dataclass(frozen=True)
@@ -71,16 +83,22 @@ class _ModesResult:
 def _modes_files(cfg: StudyConfig, folder: Path, progress: Progress, comm: MPI.Comm,
                  mode_shapes: bool = True) -> _ModesResult:
     """Mesh, assembly and the verified eigen-solve; writes the mesh files, modes.json and, if
-    asked, mode_shapes/ (ParaView)."""
+    asked, mode_shapes/ (ParaView). The memory of the whole run is estimated before meshing."""
+    estimate = estimate_mesh(cfg.geometry, cfg.mesh)
+    _check_memory(cfg, estimate.dofs, estimate.nodes, cfg.modes.count or 1)
     stage, body = meshed_body(cfg, folder, progress, comm)
+    progress(f"assembly: K, M and Ms on {stage.info.nodes} nodes")
     t0 = time.perf_counter()
     model = fe.assemble(body.mesh, cfg.material)
     timings = {"geometry_and_mesh": stage.wall_time_s, "assembly": time.perf_counter() - t0}
     progress(f"assembled K, M: {model.ndofs} DOFs")
     mesh_json = _write_mesh_json(cfg, folder, stage, model.Ms, model.nodes, cfg.material.rho,
                                  comm)
-    result = eigen.solve_free_free(model, cfg.modes, progress)
+    result = eigen.solve_free_free(
+        model, cfg.modes, progress,
+        memory_check=lambda wanted: _check_memory(cfg, model.ndofs, model.num_nodes, wanted))
     if mode_shapes:
+        progress("mode shapes: writing mode_shapes/modes.pvd")
         t0 = time.perf_counter()
         write_mode_shapes(model, result, folder / "mode_shapes" / "modes.pvd")
         timings["mode_shapes_output"] = time.perf_counter() - t0
@@ -101,7 +119,7 @@ def modes(config: Path | None, out: Path) -> str:
     """``gcms modes``: the mesh files, modes.json and the mode shapes (mode_shapes/modes.pvd)."""
     cfg = load_config(config)
     comm = MPI.COMM_WORLD
-    with staged_output(out, comm) as folder:
+    with staged_output(out, comm, MODES_FILES) as folder:
         result = _modes_files(cfg, folder, progress_printer(comm.rank), comm)
     return result.summary
 
@@ -126,7 +144,7 @@ def reduce(config: Path | None, out: Path) -> str:
     """``gcms reduce``: everything of ``gcms modes``, then reduced.h5 and selection.json."""
     cfg = load_config(config)
     comm = MPI.COMM_WORLD
-    with staged_output(out, comm) as folder:
+    with staged_output(out, comm, REDUCE_FILES) as folder:
         text, _ = reduced_model_files(cfg, folder, progress_printer(comm.rank), comm)
     return text
 
@@ -150,7 +168,7 @@ def run(config: Path | None, out: Path) -> str:
     comm = MPI.COMM_WORLD
     progress = progress_printer(comm.rank)
     summary = None
-    with staged_output(out, comm) as folder:
+    with staged_output(out, comm, (*REDUCE_FILES, *SIMULATION_FILES)) as folder:
         text, model = reduced_model_files(cfg, folder, progress, comm)
         if cfg.scene is not None:
             summary = on_rank0(comm, run_scene, cfg, model, folder, progress)

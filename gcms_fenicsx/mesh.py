@@ -19,6 +19,8 @@ from mpi4py import MPI
 
 from geometry.meshing import gmsh_session
 
+from gcms_fenicsx.interrupts import reinstall
+
 
 @dataclass(frozen=True)
 class BodyMesh:
@@ -77,6 +79,7 @@ def read_mesh(path: str | Path, groups: dict[str, tuple[int, int]],
         with gmsh_session():
             gmsh.merge(str(path))
             mesh, _, facet_tags = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=3)
+        reinstall()  # gmsh.finalize resets SIGINT
     else:
         mesh, _, facet_tags = gmshio.model_to_mesh(gmsh.model, comm, 0, gdim=3)
     surfaces = {name: tag for name, (dim, tag) in groups.items() if dim == 2}

@@ -12,10 +12,12 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from geometry import MeshInfo, build_msh
+from geometry import MeshInfo, element_order_warning, estimate_mesh
 
+from gcms_fenicsx.budget import check_meshing
 from gcms_fenicsx.config import StudyConfig
 from gcms_fenicsx.mesh import BodyMesh, read_mesh
+from gcms_fenicsx.meshing_process import mesh_in_process
 from gcms_fenicsx.outputs import on_rank0
 from gcms_fenicsx.progress import Progress, quiet
 
@@ -27,6 +29,7 @@ class MeshStage:
     msh_path: Path
     info: MeshInfo
     wall_time_s: float
+    warnings: tuple[str, ...] = ()
 
 
 def mesh_stage(cfg: StudyConfig, folder: Path, progress: Progress,
@@ -37,13 +40,19 @@ def mesh_stage(cfg: StudyConfig, folder: Path, progress: Progress,
     """
     path = Path(folder) / "mesh.msh"
     t0 = time.perf_counter()
+    estimate = estimate_mesh(cfg.geometry, cfg.mesh)
+    check_meshing(estimate.cells, cfg.mesh.size)
     progress(f"geometry and mesh: {type(cfg.geometry).__name__}, size {cfg.mesh.size:g} m, "
-             f"order {cfg.mesh.order}")
-    info = on_rank0(comm, build_msh, cfg.geometry, cfg.mesh, path)
+             f"order {cfg.mesh.order} (about {estimate.nodes:.2g} nodes)")
+    warning = element_order_warning(cfg.geometry, cfg.mesh)
+    if warning:
+        progress(f"warning: {warning}")
+    info = on_rank0(comm, mesh_in_process, cfg.geometry, cfg.mesh, path, progress)
     progress(f"mesh: {info.nodes} nodes, {info.cells} cells")
     if cfg.scene is not None:
         cfg.scene.check_groups(name for name, (dim, _) in info.groups.items() if dim == 2)
-    return MeshStage(msh_path=path, info=info, wall_time_s=time.perf_counter() - t0)
+    return MeshStage(msh_path=path, info=info, wall_time_s=time.perf_counter() - t0,
+                     warnings=(warning,) if warning else ())
 
 
 def meshed_body(cfg: StudyConfig, folder: Path, progress: Progress = quiet,
@@ -67,5 +76,6 @@ def mesh_report(cfg: StudyConfig, stage: MeshStage, fe_mass: dict, volume_time_s
         "physical_groups": sorted(stage.info.groups),
         "geometry": info,
         "input_digest": cfg.digest("geometry", "mesh"),
+        "warnings": list(stage.warnings),
         "timings_s": {"geometry_and_mesh": stage.wall_time_s, "mesh_integrals": volume_time_s},
     }

@@ -185,21 +185,41 @@ def orthonormalizing_transform(gram_kept: np.ndarray) -> np.ndarray:
     return T
 
 
+#: The largest condition number reported: 1/ε. A Gram matrix whose smallest eigenvalue is
+#: below ε times its largest is singular to working precision, and its condition number is
+#: reported as this bound.
+COND_SINGULAR = 1.0 / np.finfo(float).eps
+
+
+def condition_number(A: np.ndarray) -> float:
+    """λ_max/λ_min of a symmetric positive semi-definite A, at most COND_SINGULAR."""
+    w = np.linalg.eigvalsh(0.5 * (A + A.T))
+    return float(min(w[-1] / w[0], COND_SINGULAR)) if w[0] > 0 else COND_SINGULAR
+
+
 def conditioning(gram_mass: np.ndarray, gram_euclid: np.ndarray, T: np.ndarray | None = None,
                  kept: np.ndarray | None = None) -> dict:
-    """cond₂(Φ) = cond₂(F) = √cond(FᵀF) and cond(Mr) = cond(G), before and after selection.
-
-    Φ = F ⊗ I3 has F's singular values, each three times, so no dense Φ is needed. "After"
-    is on the kept fields, transformed by T (F' = F_kept T) when given.
+    """cond₂(Φ) = √cond(FᵀF) and cond(Mr) = cond(G), before and after selection, in a form
+    that does not depend on units: each Gram matrix is taken with the fields scaled by
+    :func:`mode_scales` of that Gram matrix (1, X Y Z together, each mode's three fields
+    together), so a change of length, mass or time units, or of the body's size, which
+    multiplies each group of fields by one factor, leaves them unchanged (so does a rotation).
+    "After" is on the kept fields, transformed by T (F' = F_kept T) when given: every field of
+    the preconditioned basis has the units of 1/√mass (unit rigid mass, unit trace of the
+    X, Y, Z block, M-orthonormal flexible fields), so its Gram matrices are taken as they are. Values are capped
+    at COND_SINGULAR (singular to working precision). Φ = F ⊗ I3 has F's singular values,
+    each three times, so no dense Φ is needed.
     """
-    def cond(A: np.ndarray) -> float:
-        w = np.linalg.eigvalsh(A)
-        return float("inf") if w[0] <= 0 else float(w[-1] / w[0])
+    nf = gram_mass.shape[0]
+    kept = np.arange(nf) if kept is None else kept
+    every = np.arange(nf)
 
-    kept = np.arange(gram_mass.shape[0]) if kept is None else kept
-    T = np.eye(len(kept)) if T is None else T
-    sub = np.ix_(kept, kept)
-    return {"cond_phi_before": float(np.sqrt(cond(gram_euclid))),
-            "cond_phi_after": float(np.sqrt(cond(T.T @ gram_euclid[sub] @ T))),
-            "cond_mr_before": cond(gram_mass),
-            "cond_mr_after": cond(T.T @ gram_mass[sub] @ T)}
+    def after(gram: np.ndarray) -> np.ndarray:
+        if T is None:
+            return scaled_gram(gram, kept)
+        return T.T @ gram[np.ix_(kept, kept)] @ T
+
+    return {"cond_phi_before": float(np.sqrt(condition_number(scaled_gram(gram_euclid, every)))),
+            "cond_phi_after": float(np.sqrt(condition_number(after(gram_euclid)))),
+            "cond_mr_before": condition_number(scaled_gram(gram_mass, every)),
+            "cond_mr_after": condition_number(after(gram_mass))}

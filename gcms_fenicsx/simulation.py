@@ -5,17 +5,20 @@ geometry, mesh, material, modes and selection tables — then nothing of the fin
 stack is imported — and otherwise builds it first (``commands``). The scene runs on rank 0
 (the reduced matrices live there).
 
-A simulation that stops early (Newton fails, the state blows up) still writes what it
-computed, marked incomplete, and the command then ends with exit status 1.
+The simulation streams its results into ``results.h5`` as it runs (memory does not grow
+with the number of steps; a run whose results would not fit on the disk is refused before it
+starts), and the pictures read from that file what they show. A simulation that stops early
+(Newton fails, the state blows up) still writes what it computed, marked incomplete, and the
+command then ends with exit status 1.
 """
 from __future__ import annotations
 
 from pathlib import Path
 
 from gcms_fenicsx.config import REDUCED_MODEL_TABLES, StudyConfig, load_config
-from gcms_fenicsx.dynamics.results import write_results
 from gcms_fenicsx.errors import ComputationFailed
-from gcms_fenicsx.dynamics.simulate import simulate
+from gcms_fenicsx.files import REDUCE_FILES, SIMULATION_FILES
+from gcms_fenicsx.dynamics.simulate import simulate_to_file
 from gcms_fenicsx.outputs import on_rank0, staged_output, write_json
 from gcms_fenicsx.plots import plot_results
 from gcms_fenicsx.progress import Progress, progress_printer
@@ -37,6 +40,10 @@ def cached_model(cfg: StudyConfig, out: Path, progress: Progress) -> ReducedMode
     except ReducedModelError as exc:
         progress(f"reduced model: {path} cannot be used ({exc}); rebuilding it")
         return None
+    if not model.checksummed:
+        progress(f"reduced model: {path} has no content checksums (schema "
+                 f"{model.schema_version}, an older gcms-fenicsx); rebuilding it")
+        return None
     if model.input_hash != cfg.digest(*REDUCED_MODEL_TABLES):
         progress(f"reduced model: {path} was made from other inputs; rebuilding it")
         return None
@@ -46,12 +53,13 @@ def cached_model(cfg: StudyConfig, out: Path, progress: Progress) -> ReducedMode
 
 def run_scene(cfg: StudyConfig, model: ReducedModel, folder: Path,
               progress: Progress, plots: bool = True) -> dict:
-    """Simulate ``cfg.scene`` and write results.h5, summary.json and (``plots``) the pictures."""
+    """Simulate ``cfg.scene`` streaming results.h5, then write summary.json and (``plots``) the
+    pictures, drawn from results.h5."""
     assert cfg.scene is not None
-    traj, summary = simulate(model, cfg.scene, progress)
-    write_results(folder / "results.h5", traj)
+    results = folder / "results.h5"
+    summary = simulate_to_file(model, cfg.scene, results, progress)
     if plots:
-        summary["plots"] = plot_results(traj, folder)
+        summary["plots"] = plot_results(results, folder)
     write_json(folder / "summary.json", summary)
     return summary
 
@@ -80,8 +88,10 @@ def simulate_command(config: Path | None, out: Path) -> str:
     progress = progress_printer(comm.rank)
     model = cached_model(cfg, out, progress) if comm.rank == 0 else None
     texts = []
-    with staged_output(out, comm) as folder:
-        if not comm.bcast(model is not None, root=0):
+    cached = comm.bcast(model is not None, root=0)
+    owns = SIMULATION_FILES if cached else (*REDUCE_FILES, *SIMULATION_FILES)
+    with staged_output(out, comm, owns) as folder:
+        if not cached:
             from gcms_fenicsx.commands import reduced_model_files
             text, model = reduced_model_files(cfg, folder, progress, comm, mode_shapes=False)
             texts.append(text)

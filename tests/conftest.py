@@ -1,6 +1,7 @@
 """Shared test set-up: the FFCx JIT cache inside the repository, and an mpirun helper."""
 from __future__ import annotations
 
+import json
 import logging
 import os
 import subprocess
@@ -27,6 +28,13 @@ def mpirun(args: list[str], n: int = 2, timeout: float = 600) -> subprocess.Comp
 @pytest.fixture
 def run_mpi():
     return mpirun
+
+
+def strict_json(path: Path):
+    """The JSON document at ``path``, refusing NaN and ±Infinity (RFC 8259 has none)."""
+    def refuse(name: str):
+        raise ValueError(f"{path}: {name} is not JSON")
+    return json.loads(path.read_text(), parse_constant=refuse)
 
 
 def gcms(*args: str) -> subprocess.CompletedProcess:

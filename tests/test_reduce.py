@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from conftest import gcms, gcms_reduce
+from conftest import gcms, gcms_reduce, strict_json
 from gcms_fenicsx.reduced_model import read_reduced
 
 BEAM = """
@@ -33,7 +33,9 @@ SELECTION_KEYS = {"columns_before", "columns_after", "fields_kept", "fields_drop
 
 def _reduce(tmp_path, text: str, name: str = "out", ranks: int = 1):
     out = gcms_reduce(text, tmp_path / f"{name}.toml", tmp_path / name, ranks)
-    return json.loads((out / "selection.json").read_text()), read_reduced(out / "reduced.h5")
+    for name in ("mesh.json", "modes.json"):
+        strict_json(out / name)
+    return strict_json(out / "selection.json"), read_reduced(out / "reduced.h5")
 
 
 @pytest.fixture(scope="module")
@@ -94,6 +96,27 @@ def test_plain_basis_keeps_accuracy_but_not_conditioning(tmp_path):
     assert report["max_rel_frequency_error"] < 1e-4
     assert report["cond_mr_after"] > 1e8
     assert model.field_names[4].startswith("phi")
+
+
+@pytest.mark.parametrize("scale", [1e-3, 1e3])
+def test_a_1_mm_and_a_1_km_beam_report_the_same_finite_conditioning(tmp_path, square, scale):
+    """The square beam scaled by 1e-3 and 1e3 (mesh size too): its selection report is strict
+    JSON (a singular Gram matrix was written as Infinity before) and its condition numbers,
+    units- and size-independent by construction, match the 0.5 m beam's on meshes that are
+    the same up to scale: to the round-off of the Gram matrix they are computed from (the
+    preconditioned basis is computed from the Gram matrix before selection, so "after"
+    carries its round-off, ε·cond_before; measured 4e-8 and 9e-7 against 8e-5)."""
+    big = SQUARE.replace("side = 0.03", f"side = {0.03 * scale!r}").replace(
+        "length = 0.5", f"length = {0.5 * scale!r}").replace("size = 0.012",
+                                                              f"size = {0.012 * scale!r}")
+    report, _ = _reduce(tmp_path, big)  # strict JSON or ValueError
+    reference, _ = square
+    assert report["columns_after"] == reference["columns_after"]
+    eps = np.finfo(float).eps
+    for key in ("cond_mr_before", "cond_mr_after", "cond_phi_before", "cond_phi_after"):
+        source = key.replace("after", "before")
+        gram_cond = reference[source] ** (2 if key.startswith("cond_phi") else 1)
+        assert report[key] == pytest.approx(reference[key], rel=10 * eps * gram_cond), key
 
 
 def test_an_unsymmetric_section(tmp_path):

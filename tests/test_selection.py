@@ -172,3 +172,27 @@ def test_selection_is_invariant_under_a_mixed_basis_of_the_repeated_pair(square)
     ref_lam = _reduced_eigenvalues(model, B, ref.kept)[6:8]
     for lam in (mixed_lam, ref_lam):
         np.testing.assert_allclose(lam, modes.elastic_eigenvalues, rtol=1e-5)
+
+
+def test_condition_numbers_do_not_depend_on_units(square):
+    """The same body in mm-t-s instead of SI multiplies 1 by 1, X, Y, Z by 1e3 and the
+    M-normalised mode fields by 1/√(1e-3) (mass unit t), and the mass Gram matrix by 1e-3 ·
+    1e9 (ρ dV): the reported condition numbers must not move, while those of the raw Gram
+    matrices change by orders of magnitude (9e13 against 4e15 in a user's probe). A
+    singular Gram matrix is reported as 1/ε, a finite number (strict JSON has no Infinity)."""
+    _, _, B = square
+    nf = B.field_count
+    scale = np.ones(nf)
+    scale[1:4] = 1e3
+    scale[4:] = 1e3 ** 1.5  # φ ~ 1/√(mass): 1/√(1e-3 t) per √kg
+    units = np.outer(scale, scale)
+    si = selection.conditioning(B.gram_mass, B.gram_euclid)
+    mm = selection.conditioning(B.gram_mass * units * 1e6, B.gram_euclid * units)
+    for key, value in si.items():
+        # the smallest eigenvalue of a Gram matrix of condition c is computed to about ε c
+        gram_cond = value ** 2 if key.startswith("cond_phi") else value
+        assert mm[key] == pytest.approx(value, rel=10 * np.finfo(float).eps * gram_cond), key
+    raw = [selection.condition_number(g) for g in (B.gram_mass, B.gram_mass * units * 1e6)]
+    assert max(raw) > 5 * min(raw)  # 2e12 against 2e13
+    singular = np.ones((3, 3))
+    assert selection.condition_number(singular) == selection.COND_SINGULAR < np.inf

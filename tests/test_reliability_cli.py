@@ -1,0 +1,132 @@
+"""Reliability of the ``gcms`` commands on inputs that break naive tools: a cached model changed
+on disk, work too large for the machine, stale plots beside a stopped simulation, a P1 mesh
+that will lock, a mode count that cuts a repeated pair, a drive that turns too fast per step."""
+from __future__ import annotations
+
+import shutil
+
+import h5py
+import numpy as np
+import pytest
+
+from conftest import gcms, strict_json
+from gcms_fenicsx.dynamics.scene import parse_scene
+from test_simulate_cli import (SCENE, assert_one_line_error, contents, output_folder, standalone,
+                               study)
+
+
+def flip_bit(path, dataset: str, index: tuple[int, int]) -> None:
+    """One bit of one entry of ``dataset`` flipped in place: still finite and symmetric enough."""
+    with h5py.File(path, "r+") as f:
+        data = f[dataset][()]
+        data.view(np.uint64)[index] ^= np.uint64(1)
+        f[dataset][...] = data
+
+
+def test_a_cache_changed_on_disk_is_rebuilt_and_refused_standalone(beam6_reduced, tmp_path):
+    """One flipped bit in Kr of the cached reduced.h5: ``gcms simulate`` says in one progress
+    line that it cannot use it and rebuilds it (the file is written anew and reads back);
+    the standalone integrator, which cannot rebuild, refuses it in one line naming the
+    dataset (exit 2)."""
+    out = output_folder(tmp_path, beam6_reduced)
+    flip_bit(out / "reduced.h5", "stiffness", (3, 3))
+    alone = standalone(str(out / "reduced.h5"), str(study(tmp_path)), "--out",
+                       str(tmp_path / "alone"))
+    assert_one_line_error(alone, "dataset /stiffness does not match its checksum")
+    assert not (tmp_path / "alone").exists()
+    run = gcms("simulate", str(study(tmp_path)), "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    assert "does not match its checksum" in run.stderr and "rebuilding it" in run.stderr
+    assert "eigen-solve" in run.stderr
+    again = gcms("simulate", str(study(tmp_path)), "--out", str(out))
+    assert again.returncode == 0 and "reusing" in again.stderr, again.stderr
+
+
+@pytest.mark.parametrize("table, key", [
+    ("[mesh]\nsize = 1e-5\n", "[mesh] size = 1e-05"),  # 1e12 cells: refused before meshing
+    ("[modes]\ncount = 50000\n", "[modes] count = 50000"),  # a Krylov basis of 1e5 vectors
+])
+def test_work_beyond_the_machine_is_refused_before_it_starts(tmp_path, table, key):
+    """A mesh size of 10 µm on a 1 m beam and 50,000 modes are refused in one line with the
+    estimate and the machine's limit, before anything is meshed, and create no --out."""
+    text = ('[geometry]\nkind = "beam"\nsection = "square"\nside = 0.02\nlength = 1.0\n'
+            + (table if "[mesh]" in table else "[mesh]\nsize = 0.004\n" + table))
+    config = tmp_path / "big.toml"
+    config.write_text(text)
+    out = tmp_path / "out"
+    run = gcms("modes", str(config), "--out", str(out))
+    assert_one_line_error(run, key, "GiB", "available")
+    assert "geometry and mesh" not in run.stderr or key.startswith("[mesh]")
+    assert not out.exists()
+
+
+def test_a_stopped_simulation_leaves_no_plots_of_an_earlier_run(beam6_reduced, tmp_path):
+    """A complete run draws trajectory.png and energy.png; a rerun whose Newton fails in its
+    first step records one row, draws nothing, and the earlier plots are removed instead of
+    being left beside results they do not show. The user's own file stays."""
+    out = output_folder(tmp_path, beam6_reduced)
+    first = gcms("simulate", str(study(tmp_path)), "--out", str(out))
+    assert first.returncode == 0, first.stderr
+    assert {"trajectory.png", "energy.png"} <= set(contents(out))
+    failing = SCENE.replace("time_step = 1e-3",
+                            "time_step = 1e-3\nsolver = { tolerance = 1e-15, max_iterations = 1 }")
+    run = gcms("simulate", str(study(tmp_path, failing, "failing.toml")), "--out", str(out))
+    assert run.returncode == 1, run.stderr
+    assert not {"trajectory.png", "energy.png", "joints.png"} & set(contents(out))
+    assert {"notes.txt", "reduced.h5", "results.h5", "summary.json"} <= set(contents(out))
+    assert strict_json(out / "summary.json")["complete"] is False
+
+
+def test_a_p1_mesh_that_will_lock_is_warned(tmp_path):
+    """A P1 beam meshed at about two elements across its depth (predicted 30 % too stiff in
+    bending, geometry.element_order_warning): ``gcms mesh`` says so and mesh.json keeps it;
+    the same mesh at order 2 says nothing."""
+    text = ('[geometry]\nkind = "beam"\nsection = "square"\nside = 0.02\nlength = 1.0\n'
+            "[mesh]\nsize = 0.01\norder = {order}\n")
+    for order, warned in ((1, True), (2, False)):
+        config = tmp_path / f"p{order}.toml"
+        config.write_text(text.format(order=order))
+        out = tmp_path / f"p{order}"
+        run = gcms("mesh", str(config), "--out", str(out))
+        assert run.returncode == 0, run.stderr
+        assert ("warning:" in run.stderr) == warned, run.stderr
+        assert bool(strict_json(out / "mesh.json")["warnings"]) == warned
+
+
+def test_a_count_that_cuts_a_repeated_pair_is_warned(tmp_path):
+    """A square beam's bending modes come in pairs: one mode keeps half of the first pair,
+    chosen by the solver, and the run says so (modes.json keeps it); two modes do not."""
+    text = ('[geometry]\nkind = "beam"\nsection = "square"\nside = 0.02\nlength = 0.4\n'
+            "[mesh]\nsize = 0.01\n[modes]\ncount = {count}\n")
+    for count, warned in ((1, True), (2, False)):
+        config = tmp_path / f"n{count}.toml"
+        config.write_text(text.format(count=count))
+        out = tmp_path / f"n{count}"
+        run = gcms("modes", str(config), "--out", str(out))
+        assert run.returncode == 0, run.stderr
+        warnings = strict_json(out / "modes.json")["warnings"]
+        assert bool(warnings) == warned and ("cut a near-repeated group" in run.stderr) == warned
+        if warned:
+            assert "ask for 2 or more" in warnings[0]
+
+
+def test_a_drive_that_turns_too_far_per_step_is_warned():
+    """A drive at 314 rad/s turns 1.57 rad in a 5 ms step: warned, with a step that keeps it
+    below 0.05 rad; at 0.1 ms (0.031 rad per step) nothing is said."""
+    table = {"end_time": 0.1, "time_step": 5e-4,
+             "joints": [{"type": "revolute", "group": "g", "axis": [1, 0, 0], "name": "shaft",
+                         "drive": {"angular_velocity": 314.0}}]}
+    fast = parse_scene(dict(table, time_step=5e-3))  # 1.57 rad per step
+    [warning] = fast.warnings()
+    assert "'shaft' turns its group 1.57 rad per step" in warning and "0.00016 s" in warning
+    slow = parse_scene(dict(table, time_step=1e-4))
+    assert slow.warnings() == []
+
+
+def test_a_copied_cache_is_reused_only_when_intact(beam6_reduced, tmp_path):
+    """The unchanged copy of the cache is reused (its checksums hold)."""
+    out = tmp_path / "out"
+    out.mkdir()
+    shutil.copy2(beam6_reduced, out / "reduced.h5")
+    run = gcms("simulate", str(study(tmp_path)), "--out", str(out))
+    assert run.returncode == 0 and "reusing" in run.stderr, run.stderr
