@@ -15,7 +15,7 @@ import sys
 import time
 from pathlib import Path
 
-from gcms_fenicsx.validation import ConfigError
+from gcms_fenicsx.config.table import ConfigError
 
 
 def _common(parser: argparse.ArgumentParser, config_required: bool = True) -> None:
@@ -46,22 +46,18 @@ def main(argv: list[str] | None = None) -> int:
     logging.disable(logging.INFO)  # the JIT's C build logs every compiler call at INFO
     from mpi4py import MPI
 
+    from gcms_fenicsx import commands  # light: the FE verbs import dolfinx when they run
+    from gcms_fenicsx.commands import SimulationIncomplete
     from gcms_fenicsx.dynamics.scene import SceneError
-    from gcms_fenicsx.errors import ComputationFailed
-    from gcms_fenicsx.interrupts import Interrupted, interruptible
-    from gcms_fenicsx.reduced_model import ReducedModelError
-    from gcms_fenicsx.simulation import SimulationIncomplete, simulate_command
+    from gcms_fenicsx.files.reduced_model import ReducedModelError
+    from gcms_fenicsx.runtime.errors import ComputationFailed
+    from gcms_fenicsx.runtime.interrupts import Interrupted, interruptible
 
     comm = MPI.COMM_WORLD
     t0 = time.perf_counter()
-    if args.command == "simulate":  # reuses a cached reduced model without dolfinx
-        command = simulate_command
-    else:  # heavy imports (dolfinx, PETSc, Gmsh) only for the finite-element commands
-        from gcms_fenicsx import commands
-        command = getattr(commands, args.command)
     try:
-        with interruptible():  # after Gmsh's import, which resets SIGINT
-            summary = command(args.config, args.out)
+        with interruptible():
+            summary = getattr(commands, args.command)(args.config, args.out)
     except (Interrupted, KeyboardInterrupt) as exc:
         signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
         if comm.rank == 0:

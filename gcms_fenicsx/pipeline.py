@@ -1,30 +1,55 @@
-"""The stages of a study, composed: geometry → mesh → K, M → free-free modes.
+"""The stages of a study as plain functions on plain data (docs/design.md §1).
 
-Each function takes plain inputs (the validated config, a folder) and returns the next
-stage's data; the CLI only chains them inside a staged output folder. Rank 0 runs Gmsh
-and writes files; every rank takes part in the finite-element stages.
+    mesh_stage ─► body_mesh ─► assembly_stage ─► modes_stage ─► reduction_stage
+               ─► reduced_model ─► simulation_stage
+
+Each stage takes the tables and products it uses and returns a frozen product; none reads
+the whole study, writes a file of a command's or prints anything but progress. ``commands``
+composes them for the ``gcms`` verbs, and the workflows and tests build their bodies with
+the same functions. The finite-element stages import dolfinx, PETSc and Gmsh when they run,
+so this module itself is light: ``gcms simulate`` on a cached model imports none of them.
+Collective stages take an MPI communicator (None: the world); small products are the same
+on every rank, distributed ones hold each rank's rows.
 """
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, Callable
 
-from mpi4py import MPI
+from geometry.element_order import element_order_warning
+from geometry.estimate import estimate_mesh
+from geometry.params import Geometry, MeshParams
 
-from geometry import MeshInfo, element_order_warning, estimate_mesh
+from gcms_fenicsx.config.material import Material
+from gcms_fenicsx.config.modes import ModesConfig
+from gcms_fenicsx.config.selection import SelectionConfig
+from gcms_fenicsx.dynamics.scene import Scene
+from gcms_fenicsx.dynamics.simulate import simulate_to_file
+from gcms_fenicsx.files.outputs import on_rank0
+from gcms_fenicsx.files.reduced_model import NodeGroup, ReducedModel
+from gcms_fenicsx.runtime.progress import Progress, quiet
 
-from gcms_fenicsx.budget import check_meshing
-from gcms_fenicsx.config import StudyConfig
-from gcms_fenicsx.mesh import BodyMesh, read_mesh
-from gcms_fenicsx.meshing_process import mesh_in_process
-from gcms_fenicsx.outputs import on_rank0
-from gcms_fenicsx.progress import Progress, quiet
+from geometry.info import MeshInfo
+
+if TYPE_CHECKING:
+    from gcms_fenicsx.fe.assembly import FEModel
+    from gcms_fenicsx.fe.mesh import BodyMesh, MassProperties
+    from gcms_fenicsx.fe.modes import Modes
+    from gcms_fenicsx.reduction.reduce import Reduction
+
+
+def _world(comm: Any) -> Any:
+    if comm is not None:
+        return comm
+    from mpi4py import MPI
+    return MPI.COMM_WORLD
 
 
 @dataclass(frozen=True)
-class MeshStage:
-    """The meshed body: the ``.msh`` file, what Gmsh reported, and its build time."""
+class MeshProduct:
+    """The meshed body: the ``.msh`` file, what Gmsh reported, warnings, and its build time."""
 
     msh_path: Path
     info: MeshInfo
@@ -32,50 +57,120 @@ class MeshStage:
     warnings: tuple[str, ...] = ()
 
 
-def mesh_stage(cfg: StudyConfig, folder: Path, progress: Progress,
-               comm: MPI.Comm = MPI.COMM_WORLD) -> MeshStage:
-    """Build the geometry and mesh it on rank 0 into ``folder/mesh.msh``; every rank gets the info.
+def mesh_stage(geometry: Geometry, mesh: MeshParams, folder: Path, progress: Progress = quiet,
+               comm: Any = None) -> MeshProduct:
+    """Build the geometry and mesh it on rank 0 (a child process) into ``folder/mesh.msh``;
+    every rank gets the product. Refused before meshing when its estimated memory exceeds
+    the machine's (``fe.memory``); a P1 mesh predicted to lock is warned."""
+    from gcms_fenicsx.fe.memory import check_meshing
+    from gcms_fenicsx.fe.meshing import mesh_in_process
 
-    A scene that names a group the mesh does not have fails here, before any solve.
-    """
+    comm = _world(comm)
     path = Path(folder) / "mesh.msh"
     t0 = time.perf_counter()
-    estimate = estimate_mesh(cfg.geometry, cfg.mesh)
-    check_meshing(estimate.cells, cfg.mesh.size)
-    progress(f"geometry and mesh: {type(cfg.geometry).__name__}, size {cfg.mesh.size:g} m, "
-             f"order {cfg.mesh.order} (about {estimate.nodes:.2g} nodes)")
-    warning = element_order_warning(cfg.geometry, cfg.mesh)
+    estimate = estimate_mesh(geometry, mesh)
+    check_meshing(estimate.cells, mesh.size)
+    progress(f"geometry and mesh: {type(geometry).__name__}, size {mesh.size:g} m, "
+             f"order {mesh.order} (about {estimate.nodes:.2g} nodes)")
+    warning = element_order_warning(geometry, mesh)
     if warning:
         progress(f"warning: {warning}")
-    info = on_rank0(comm, mesh_in_process, cfg.geometry, cfg.mesh, path, progress)
+    info = on_rank0(comm, mesh_in_process, geometry, mesh, path, progress)
     progress(f"mesh: {info.nodes} nodes, {info.cells} cells")
-    if cfg.scene is not None:
-        cfg.scene.check_groups(name for name, (dim, _) in info.groups.items() if dim == 2)
-    return MeshStage(msh_path=path, info=info, wall_time_s=time.perf_counter() - t0,
-                     warnings=(warning,) if warning else ())
+    return MeshProduct(msh_path=path, info=info, wall_time_s=time.perf_counter() - t0,
+                       warnings=(warning,) if warning else ())
 
 
-def meshed_body(cfg: StudyConfig, folder: Path, progress: Progress = quiet,
-                comm: MPI.Comm = MPI.COMM_WORLD) -> tuple[MeshStage, BodyMesh]:
-    """:func:`mesh_stage`, then the body as a distributed dolfinx mesh with its physical groups."""
-    stage = mesh_stage(cfg, folder, progress, comm)
-    return stage, read_mesh(stage.msh_path, stage.info.groups, comm)
+def body_mesh(product: MeshProduct, comm: Any = None) -> BodyMesh:
+    """The meshed body as a distributed dolfinx mesh with its surface groups."""
+    from gcms_fenicsx.fe.mesh import read_mesh
+    return read_mesh(product.msh_path, product.info.groups, _world(comm))
 
 
-def mesh_report(cfg: StudyConfig, stage: MeshStage, fe_mass: dict, volume_time_s: float) -> dict:
-    """The ``mesh.json`` document: counts, groups, and the mesh's mass properties beside the CAD's."""
-    info = stage.info.to_json()
-    return {
-        "nodes": stage.info.nodes,
-        "cells": stage.info.cells,
-        "order": cfg.mesh.order,
-        "size_m": cfg.mesh.size,
-        "volume_m3": fe_mass["volume_m3"],
-        "mesh_mass_properties": fe_mass,
-        "mass_properties": info["mass_properties"],
-        "physical_groups": sorted(stage.info.groups),
-        "geometry": info,
-        "input_digest": cfg.digest("geometry", "mesh"),
-        "warnings": list(stage.warnings),
-        "timings_s": {"geometry_and_mesh": stage.wall_time_s, "mesh_integrals": volume_time_s},
-    }
+@dataclass(frozen=True)
+class Assembly:
+    """K, M and Ms of the body, and the mass properties the mesh integrates (unit density)."""
+
+    model: FEModel
+    mass_properties: MassProperties
+    wall_time_s: float
+    mass_time_s: float
+
+
+def assembly_stage(mesh: Any, material: Material, degree: int | None = None,
+                   progress: Progress = quiet) -> Assembly:
+    """Assemble K, M (vector P_k) and Ms (scalar P_k, the same nodes) on a dolfinx mesh
+    (``BodyMesh.mesh``); k is the mesh's geometric order unless ``degree`` says otherwise
+    (P2 on a straight-edged mesh). Collective."""
+    from gcms_fenicsx.fe.assembly import assemble
+    from gcms_fenicsx.fe.mass import mass_properties
+
+    progress("assembly: K, M and Ms")
+    t0 = time.perf_counter()
+    model = assemble(mesh, material, degree)
+    t1 = time.perf_counter()
+    mass = mass_properties(model.Ms, model.nodes, material.rho)
+    progress(f"assembled K, M: {model.ndofs} DOFs")
+    return Assembly(model=model, mass_properties=mass, wall_time_s=t1 - t0,
+                    mass_time_s=time.perf_counter() - t1)
+
+
+def modes_stage(model: FEModel, settings: ModesConfig, progress: Progress = quiet,
+                memory_check: Callable[[int, int, int], None] | None = None) -> Modes:
+    """The six rigid and the requested elastic modes, verified (``fe.eigensolve``)."""
+    from gcms_fenicsx.fe.eigensolve import solve_free_free
+    return solve_free_free(model, settings, progress, memory_check)
+
+
+@dataclass(frozen=True)
+class FreeFree:
+    """The chain up to the verified free-free modes: mesh, dolfinx mesh, K and M, modes."""
+
+    mesh: MeshProduct
+    body: BodyMesh
+    assembly: Assembly
+    modes: Modes
+
+
+def free_free(geometry: Geometry, mesh: MeshParams, material: Material, settings: ModesConfig,
+              folder: Path, progress: Progress = quiet, comm: Any = None,
+              memory_check: Callable[[int, int, int], None] | None = None) -> FreeFree:
+    """:func:`mesh_stage`, :func:`body_mesh`, :func:`assembly_stage` and :func:`modes_stage`."""
+    product = mesh_stage(geometry, mesh, folder, progress, comm)
+    body = body_mesh(product, comm)
+    assembly = assembly_stage(body.mesh, material, progress=progress)
+    return FreeFree(product, body, assembly,
+                    modes_stage(assembly.model, settings, progress, memory_check))
+
+
+def reduction_stage(model: FEModel, modes: Modes, body: BodyMesh, settings: SelectionConfig,
+                    progress: Progress = quiet) -> Reduction:
+    """GCMS fields, their selection and the reduced matrices (``reduction.reduce``)."""
+    from gcms_fenicsx.reduction.reduce import reduce_body
+    progress("GCMS fields, selection and reduced matrices")
+    return reduce_body(model, modes, body, settings)
+
+
+def reduced_model(reduction: Reduction, comm: Any = None) -> ReducedModel | None:
+    """The reduction as one :class:`ReducedModel` on rank 0 (None on the others): every rank's
+    rows of F and of the node coordinates gathered there, in global node order. Its
+    provenance (input hash, material, mesh statistics) is left empty for the caller."""
+    comm = _world(comm)
+    fields, nodes = comm.gather(reduction.fields, root=0), comm.gather(reduction.nodes_m, root=0)
+    if comm.rank != 0:
+        return None
+    import numpy as np
+    return ReducedModel(
+        mass=reduction.mass, stiffness=reduction.stiffness, gravity=reduction.gravity,
+        fields=np.vstack(fields), nodes_m=np.vstack(nodes), field_names=reduction.field_names,
+        groups={name: NodeGroup(nodes=n, weights=w) for name, (n, w) in reduction.groups.items()},
+        frequencies_hz=reduction.frequencies_hz,
+        reduced_frequencies_hz=reduction.reduced_frequencies_hz, selection=reduction.report,
+        tolerances=reduction.tolerances)
+
+
+def simulation_stage(model: ReducedModel, scene: Scene, results: Path,
+                     progress: Progress = quiet) -> dict:
+    """Run ``scene`` on ``model``, streaming its results into ``results`` (results.h5); the
+    summary (``summary.json``). Serial: the reduced matrices live on one rank."""
+    return simulate_to_file(model, scene, results, progress)

@@ -1,17 +1,19 @@
 """Parametric Gmsh geometries of the study: straight beams of ten cross-sections and crankshafts.
 
-``parse_geometry`` and ``parse_mesh`` validate the ``[geometry]`` and ``[mesh]`` tables
-into frozen dataclasses (pure Python, no Gmsh); ``build_msh`` builds the OCC model,
-meshes it and writes a ``.msh`` file that ``dolfinx.io.gmshio`` reads, returning a
-:class:`MeshInfo`. Gmsh itself is loaded only when ``build_msh`` or ``MeshInfo`` is first
-used, so reading a configuration stays light.
+Independent of ``gcms_fenicsx``: the configuration layer reads the ``[geometry]`` and
+``[mesh]`` tables into the parameter types of ``params`` and runs the checks here, whose
+``errors.GeometryError`` names the key, value and what is allowed. ``build_msh`` builds the
+OCC model, meshes it and writes a ``.msh`` file that ``dolfinx.io.gmshio`` reads, returning
+a :class:`MeshInfo`; ``python -m geometry build`` does it in a process of its own. Gmsh is
+loaded only when ``build_msh`` is first used.
 
-Modules: ``shapes`` and ``polygon`` (plane shapes and polygon checks), ``sections`` (the
-beam sections), ``crank_layout`` (where a crankshaft's parts go), ``features`` (smallest
-features against the kernel and the mesh size), ``params`` (the config tables), ``groups``
-(physical group names and tags), ``body`` (what a builder returns), ``estimate`` (cells
-and nodes before meshing), ``element_order`` (the P1 stiffness warning); with Gmsh:
-``occ_shapes``, ``faces``, ``beam``, ``crankshaft`` and ``meshing``.
+Modules, pure Python: ``shapes`` and ``polygon`` (plane shapes and polygon checks),
+``sections`` (the beam sections), ``crank_layout`` (where a crankshaft's parts go),
+``params`` (the parameter types and their defaults), ``extent`` (a body's largest extent),
+``features`` (smallest features against the kernel and the mesh size), ``groups``
+(physical group names and tags), ``estimate`` (cells and nodes before meshing),
+``element_order`` (the P1 stiffness warning), ``errors``; with Gmsh: ``solid`` (what a
+builder returns), ``occ_shapes``, ``faces``, ``beam``, ``crankshaft`` and ``meshing``.
 """
 from __future__ import annotations
 
@@ -19,15 +21,16 @@ from typing import TYPE_CHECKING, Any
 
 from geometry.element_order import element_order_warning
 from geometry.estimate import MeshEstimate, estimate_mesh
-from geometry.params import BeamParams, CrankshaftParams, MeshParams, parse_geometry, parse_mesh
+from geometry.params import BeamParams, CrankshaftParams, MeshParams
 from geometry.sections import SECTIONS
 
+from geometry.info import MeshInfo
+
 if TYPE_CHECKING:
-    from geometry.meshing import MeshInfo, build_msh
+    from geometry.meshing import build_msh
 
 __all__ = ["BeamParams", "CrankshaftParams", "MeshEstimate", "MeshInfo", "MeshParams", "SECTIONS",
-           "build_msh", "element_order_warning", "estimate_mesh", "parse_geometry", "parse_mesh",
-           "section_area"]
+           "build_msh", "element_order_warning", "estimate_mesh", "section_area"]
 
 
 def section_area(params: BeamParams) -> float:
@@ -36,7 +39,7 @@ def section_area(params: BeamParams) -> float:
 
 
 def __getattr__(name: str) -> Any:  # PEP 562: import Gmsh on first use only
-    if name in ("MeshInfo", "build_msh"):
+    if name == "build_msh":
         from geometry import meshing
         return getattr(meshing, name)
     raise AttributeError(f"module 'geometry' has no attribute {name!r}")

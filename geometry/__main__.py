@@ -20,6 +20,7 @@ from dataclasses import asdict, fields
 from pathlib import Path
 from typing import Any
 
+from geometry.errors import GeometryError
 from geometry.params import BeamParams, CrankshaftParams, Geometry, MeshParams
 
 
@@ -48,13 +49,12 @@ def main(argv: list[str]) -> int:
         print(__doc__.splitlines()[0], file=sys.stderr)
         return 2
     params, msh, info = (Path(a) for a in argv[1:])
-    from gcms_fenicsx.validation import ConfigError
     from geometry.meshing import build_msh
     geom, mesh = params_from_json(json.loads(params.read_text()))
     try:
         result = build_msh(geom, mesh, msh).to_json()
         status = 0
-    except ConfigError as exc:
+    except GeometryError as exc:
         result = {"error": {"key": exc.key, "value": exc.value, "allowed": exc.allowed}}
         status = 2
     except Exception as exc:  # the kernel's bare Exception: reported, not a traceback

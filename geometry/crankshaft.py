@@ -10,17 +10,18 @@ from __future__ import annotations
 import gmsh
 
 from geometry import faces, groups
-from geometry.body import Body, KernelFailure
-from geometry.crank_layout import CrankLayout, Web
+from geometry.errors import KernelFailure
+from geometry.solid import Solid
+from geometry.crank_layout import CrankLayout, Web, crank_layout
 from geometry.occ_shapes import DimTags, add_face, extrude_along_x, to_section_plane
 from geometry.params import CrankshaftParams
 
 
-def add_crankshaft(p: CrankshaftParams) -> Body:
+def add_crankshaft(p: CrankshaftParams) -> Solid:
     """Build the crankshaft in the current Gmsh model, with groups ``journal_i``
     (cylindrical main journal surfaces), ``pin_i`` (crank pin surfaces), ``end_x0``, ``end_xL``."""
     occ = gmsh.model.occ
-    layout = p.layout()
+    layout = crank_layout(p)
     solids: DimTags = [(3, occ.addCylinder(part.x0, *part.centre, part.length, 0.0, 0.0,
                                            part.radius)) for part in layout.parts]
     for web in layout.webs:
@@ -30,7 +31,7 @@ def add_crankshaft(p: CrankshaftParams) -> Body:
     if len(fused) != 1:
         raise KernelFailure(f"crankshaft: fusion gave {len(fused)} solids instead of one")
     volume = fused[0][1]
-    return Body(volume, _surfaces(layout, volume))
+    return Solid(volume, _surfaces(layout, volume))
 
 
 def _add_web(web: Web) -> list[int]:

@@ -28,7 +28,7 @@ import math
 from dataclasses import dataclass
 
 from geometry import groups
-from geometry.crank_layout import RoundPart, web_area_and_perimeter
+from geometry.crank_layout import RoundPart, crank_layout, web_area_and_perimeter
 from geometry.params import ELEMENTS_PER_CIRCLE, BeamParams, CrankshaftParams, Geometry, \
     MeshParams
 from geometry.shapes import Circle, Polygon
@@ -76,7 +76,7 @@ def bounding_box_diagonal(geom: Geometry) -> float:
     if isinstance(geom, BeamParams):
         width, height = geom.profile().outer.extent
         return math.hypot(geom.length, width, height)
-    layout = geom.layout()
+    layout = crank_layout(geom)
     return math.hypot(layout.length, layout.width, layout.width)
 
 
@@ -142,7 +142,7 @@ def _round_terms(part: RoundPart, size: float) -> Terms:
 def _crankshaft_terms(p: CrankshaftParams, size: float) -> Terms:
     """Round parts; webs (the outline's faces less the journal and pin discs they carry,
     and the rim); the end faces and the shoulders where two round parts meet."""
-    layout = p.layout()
+    layout = crank_layout(p)
     terms = Terms()
     for part in layout.parts:
         terms += _round_terms(part, size)
@@ -164,7 +164,7 @@ def group_area_and_size(geom: Geometry, name: str, size: float) -> tuple[float, 
     """A surface group's area and the element size around it without refinement."""
     if isinstance(geom, BeamParams):
         return geom.profile().area, beam_volume_size(geom, size)
-    parts = geom.layout().parts
+    parts = crank_layout(geom).parts
     if name in (groups.END_X0, groups.END_XL):
         part = parts[0] if name == groups.END_X0 else parts[-1]
         return math.pi * part.radius**2, curvature_size(part.radius, size)

@@ -21,7 +21,7 @@ webs and the shoulders of its nose and flange, a beam's length. Each is checked 
   2) meshes. Straight walls mesh at any ratio, their worst cell flattening with it. The
   check reads ``[mesh] size`` as given: a finer ``refine`` near a group does not relax it.
 
-Pure Python; the checks raise ConfigError naming the key that sets the feature.
+Pure Python; the checks raise GeometryError naming the key that sets the feature.
 """
 from __future__ import annotations
 
@@ -29,9 +29,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from gcms_fenicsx.validation import ConfigError
-
 from geometry.crank_layout import FLANGE_LENGTH, NOSE_DIAMETER
+from geometry.errors import GeometryError
 from geometry.polygon import narrowest_gap, shortest_edge
 from geometry.sections import Dimensions
 from geometry.shapes import Polygon
@@ -138,13 +137,13 @@ def _smallest(geom: Geometry, minimum: float) -> Feature | None:
     return min(small, key=lambda f: f.size, default=None)
 
 
-def _refuse(geom: Geometry, feature: Feature, allowed: str) -> ConfigError:
-    return ConfigError(f"[geometry] {feature.key}", key_value(geom, feature.key),
+def _refuse(geom: Geometry, feature: Feature, allowed: str) -> GeometryError:
+    return GeometryError(f"[geometry] {feature.key}", key_value(geom, feature.key),
                        f"{feature.what} is {feature.size:.3g} m, {allowed}")
 
 
 def check_kernel_resolution(geom: Geometry, extent: float) -> None:
-    """ConfigError if a feature is below KERNEL_RESOLUTION of the largest ``extent``."""
+    """GeometryError if a feature is below KERNEL_RESOLUTION of the largest ``extent``."""
     minimum = KERNEL_RESOLUTION * extent
     feature = _smallest(geom, minimum)
     if feature:
@@ -154,7 +153,7 @@ def check_kernel_resolution(geom: Geometry, extent: float) -> None:
 
 
 def check_mesh_resolution(geom: Geometry, size: float, order: int) -> None:
-    """ConfigError if a feature is below MIN_FEATURE_PER_SIZE[order] of ``size``."""
+    """GeometryError if a feature is below MIN_FEATURE_PER_SIZE[order] of ``size``."""
     ratio = MIN_FEATURE_PER_SIZE[order]
     feature = _smallest(geom, ratio * size)
     if feature:

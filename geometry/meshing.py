@@ -6,7 +6,7 @@ properties, meshes in 3D (order 2: 10-node tetrahedra whose edge midpoints lie o
 CAD, so round surfaces are curved), and writes MSH 4.1 with only the physical groups'
 elements, as ``dolfinx.io.gmshio.read_from_msh`` wants. The model is built in units of
 the power of ten nearest the body's size and the file written in metres, so the kernel's
-absolute tolerances scale with the body. A failure of the kernel is a ConfigError. The file
+absolute tolerances scale with the body. A failure of the kernel is a GeometryError. The file
 appears atomically or not at all, and Gmsh is finalized on every path.
 """
 from __future__ import annotations
@@ -16,7 +16,7 @@ import os
 import secrets
 import sys
 from collections.abc import Callable, Iterator
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from functools import singledispatch
 from pathlib import Path
 from typing import Any
@@ -24,51 +24,21 @@ from typing import Any
 import gmsh
 import numpy as np
 
-from gcms_fenicsx.validation import ConfigError
-
 from geometry import groups
 from geometry.beam import add_beam
-from geometry.body import Body, KernelFailure
+from geometry.errors import GeometryError, KernelFailure
+from geometry.info import MeshInfo
+from geometry.solid import Solid
 from geometry.crankshaft import add_crankshaft
-from geometry.params import ELEMENTS_PER_CIRCLE, BeamParams, CrankshaftParams, Geometry, \
-    MeshParams, geometry_keys, largest_extent, model_unit, surface_groups
+from geometry.extent import largest_extent
+from geometry.params import (ELEMENTS_PER_CIRCLE, BeamParams, CrankshaftParams, Geometry,
+                             MeshParams, geometry_keys, model_unit, surface_groups)
 
 SetOption = Callable[[str, float], None]  # gmsh.option.setNumber, undone after the session
 MODEL_NAME = "gcms_geometry"  # the model a session works in inside someone else's Gmsh
 
 #: Element type of Gmsh's 3D elements by order: 4-node and 10-node tetrahedra.
 TETRAHEDRON = {1: 4, 2: 11}
-
-
-@dataclass(frozen=True)
-class MeshInfo:
-    """What was meshed: counts, physical groups and the CAD's mass properties.
-
-    ``mass_properties`` come from the OCC kernel at unit density: ``volume_m3``,
-    ``center_of_mass_m`` [x, y, z], ``inertia_m5`` (3×3, about the centre of mass,
-    J = ∫ (|r|² I − r rᵀ) dV with r = x − x_c: positive diagonal, off-diagonals
-    −∫ r_i r_j dV; OCC's ``MatrixOfInertia`` convention, checked against a box and an
-    L-shaped solid), and ``bounding_box_m`` [[x, y, z]min, [x, y, z]max] (OCC's box,
-    enlarged by its tolerance, ~1e-7 of the model unit).
-    """
-
-    nodes: int
-    cells: int
-    groups: dict[str, tuple[int, int]]  # name → (dim, physical tag)
-    mass_properties: dict[str, Any]
-
-    def to_json(self) -> dict:
-        return asdict(self)
-
-    def summary(self) -> str:
-        mp = self.mass_properties
-        com = ", ".join(f"{c:.4g}" for c in mp["center_of_mass_m"])
-        return "\n".join([
-            f"mesh: {self.nodes} nodes, {self.cells} tetrahedra",
-            f"CAD volume {mp['volume_m3']:.6e} m^3, centre of mass ({com}) m",
-            "groups: " + ", ".join(f"{name} ({dim}D, tag {tag})"
-                                   for name, (dim, tag) in self.groups.items()),
-        ])
 
 
 def build_msh(geom: Geometry, mesh: MeshParams, path: Path, *, verbose: bool = False) -> MeshInfo:
@@ -78,7 +48,7 @@ def build_msh(geom: Geometry, mesh: MeshParams, path: Path, *, verbose: bool = F
     extent (``params.model_unit``) and written in metres (``Mesh.ScalingFactor``), so OCC's
     and Gmsh's absolute tolerances are relative to the body: a body scaled by 1e-3 or 1e3,
     its mesh sizes with it, gets the same mesh scaled. A failure of the geometry kernel or
-    the mesher is a ConfigError naming the geometry's keys and the kernel's message.
+    the mesher is a GeometryError naming the geometry's keys and the kernel's message.
     """
     path = Path(path)
     unit = model_unit(largest_extent(geom))
@@ -105,7 +75,7 @@ def build_msh(geom: Geometry, mesh: MeshParams, path: Path, *, verbose: bool = F
 @contextlib.contextmanager
 def kernel_errors(geom: Geometry, mesh: MeshParams) -> Iterator[None]:
     """Turn the bare ``Exception`` Gmsh raises with the kernel's last error (OCC's or the
-    mesher's) and a :class:`KernelFailure` into a one-line ConfigError naming the keys of
+    mesher's) and a :class:`KernelFailure` into a one-line GeometryError naming the keys of
     the geometry, the mesh size and the kernel's message; other exceptions pass unchanged."""
     try:
         yield
@@ -114,14 +84,14 @@ def kernel_errors(geom: Geometry, mesh: MeshParams) -> Iterator[None]:
             raise
         key = "section" if isinstance(geom, BeamParams) else "kind"
         message = " ".join(str(exc).split())
-        raise ConfigError(f"[geometry] {key}", getattr(geom, key),
+        raise GeometryError(f"[geometry] {key}", getattr(geom, key),
                           f"the geometry kernel could not build or mesh this {geom.kind} "
                           f"({message}): check {', '.join(geometry_keys(geom))} against "
                           f"each other and [mesh] size = {mesh.size:g}") from exc
 
 
 @singledispatch
-def add_body(geom) -> Body:
+def add_body(geom) -> Solid:
     """Build ``geom`` in the current Gmsh model."""
     raise TypeError(f"no builder for {type(geom).__name__}")
 
@@ -130,7 +100,7 @@ add_body.register(BeamParams, add_beam)
 add_body.register(CrankshaftParams, add_crankshaft)
 
 
-def _add_physical_groups(geom: Geometry, body: Body) -> dict[str, tuple[int, int]]:
+def _add_physical_groups(geom: Geometry, body: Solid) -> dict[str, tuple[int, int]]:
     gmsh.model.addPhysicalGroup(3, [body.volume], groups.BODY_TAG)
     gmsh.model.setPhysicalName(3, groups.BODY_TAG, groups.BODY)
     tags = {groups.BODY: (3, groups.BODY_TAG)}
@@ -164,12 +134,12 @@ def _check_curved_cells(mesh: MeshParams) -> None:
     _, determinants, _ = gmsh.model.mesh.getJacobians(kind, points)
     folded = int(np.sum(determinants.reshape(-1, len(points) // 3).min(axis=1) <= 0.0))
     if folded:
-        raise ConfigError("[mesh] size", mesh.size,
+        raise GeometryError("[mesh] size", mesh.size,
                           f"folds {folded} curved order-2 cells (a thin round wall meshed too "
                           "coarsely): use a smaller size, or order = 1")
 
 
-def set_mesh_sizes(set_option: SetOption, body: Body, mesh: MeshParams) -> None:
+def set_mesh_sizes(set_option: SetOption, body: Solid, mesh: MeshParams) -> None:
     """Element sizes: at most ``mesh.size``, at most 1/ELEMENTS_PER_CIRCLE of a round
     surface's circumference, and ``refine[name]`` on each named surface, growing linearly
     to ``mesh.size`` over two mesh sizes (Distance + Threshold fields, minimum of all)."""

@@ -1,26 +1,18 @@
-"""The ``[geometry]`` and ``[mesh]`` tables, parsed, defaulted and validated into dataclasses.
+"""The parameters of a body and its mesh: frozen dataclasses with their defaults, in metres.
 
-Every check runs here, before Gmsh is touched: a bad value raises
-:class:`~gcms_fenicsx.validation.ConfigError` naming the key (``[geometry] thickness``),
-the value and what is allowed, including constraints between keys (a wall thicker than
-half the section, a pin that does not fit the throw, a mesh size larger than the body) and
-features too small for the geometry kernel or the mesh size (``geometry.features``).
-Unknown keys are rejected. Lengths are in metres; ``in_units`` expresses a body in the
-length unit its model is built in (``model_unit``).
+What each ``[geometry]`` and ``[mesh]`` key means and which values the builders take; the
+tables themselves are read by the configuration layer (``gcms_fenicsx.config.geometry``),
+which calls the checks here and in ``geometry.features``. ``in_units`` expresses a body in
+the length unit its model is built in (``model_unit``). Pure Python.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import Any, Mapping
-
-from gcms_fenicsx.validation import Table
+from typing import Any
 
 from geometry import groups
-from geometry.crank_layout import CrankLayout, crank_layout
-from geometry.features import check_kernel_resolution, check_mesh_resolution
-from geometry.sections import SECTION_KEYS, SECTIONS, Dimensions, Profile, section_profile, \
-    section_violation
+from geometry.sections import Dimensions, Profile, section_profile
 
 KINDS = ("beam", "crankshaft")
 MAX_THROWS = 16  # more than any inline engine has; the group tags would allow 99
@@ -47,7 +39,7 @@ CRANKSHAFT_DEFAULTS: dict[str, Any] = {
     "nose": True,
     "flange": True,
 }
-_CRANK_LENGTHS = ("stroke", "journal_diameter", "journal_length", "pin_diameter",
+CRANK_LENGTHS = ("stroke", "journal_diameter", "journal_length", "pin_diameter",
                   "pin_length", "web_thickness", "web_width")
 
 
@@ -115,12 +107,9 @@ class CrankshaftParams:
     flange: bool = CRANKSHAFT_DEFAULTS["flange"]
     kind: str = field(default="crankshaft", init=False)
 
-    def layout(self) -> CrankLayout:
-        return crank_layout(self)
-
     def in_units(self, unit: float) -> CrankshaftParams:
         """The same crankshaft with every length divided by ``unit``."""
-        return replace(self, **{key: in_units(getattr(self, key), unit) for key in _CRANK_LENGTHS})
+        return replace(self, **{key: in_units(getattr(self, key), unit) for key in CRANK_LENGTHS})
 
 
 @dataclass(frozen=True)
@@ -141,83 +130,11 @@ class MeshParams:
 Geometry = BeamParams | CrankshaftParams
 
 
-def parse_geometry(raw: Mapping[str, Any] | None) -> Geometry:
-    """Validate ``[geometry]``: ``kind`` (required) and the keys of that kind."""
-    table = Table("geometry", raw)
-    kind = table.choice("kind", KINDS)
-    return _parse_beam(table) if kind == "beam" else _parse_crankshaft(table)
-
-
-def _parse_beam(t: Table) -> BeamParams:
-    length = t.positive("length", 1.0)
-    section = t.choice("section", SECTIONS)
-    keys = SECTION_KEYS[section]
-    for key in keys:  # known before finish(), so a typo is reported as an unknown key
-        t.get(key, None)
-    t.finish()
-    dims = {key: _vertices(t) if key == "vertices" else t.positive(key) for key in keys}
-    violation = section_violation(section, dims)
-    if violation:
-        key, allowed = violation
-        raise t.error(key, dims[key], f"{allowed} (section {section!r})")
-    beam = BeamParams(section=section, dimensions=dims, length=length)
-    check_kernel_resolution(beam, largest_extent(beam))
-    return beam
-
-
-def _vertices(t: Table) -> tuple[tuple[float, float], ...]:
-    value = t.get("vertices")
-    if not isinstance(value, (list, tuple)) or not all(
-            isinstance(v, (list, tuple)) and len(v) == 2 and all(
-                isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c)
-                for c in v)
-            for v in value):
-        raise t.error("vertices", value, "must be a list of [y, z] pairs of finite numbers")
-    return tuple((float(y), float(z)) for y, z in value)
-
-
-def _parse_crankshaft(t: Table) -> CrankshaftParams:
-    d = CRANKSHAFT_DEFAULTS
-    throws = t.integer("throws", d["throws"], low=1, high=MAX_THROWS)
-    angles = t.number_list("crank_angles_deg", list(default_crank_angles(throws)))
-    if len(angles) != throws:
-        raise t.error("crank_angles_deg", angles,
-                      f"must have one angle per throw: {throws} values for throws = {throws}")
-    lengths = {key: t.positive(key, d[key]) for key in _CRANK_LENGTHS}
-    flags = {key: t.boolean(key, d[key]) for key in ("counterweights", "nose", "flange")}
-    t.finish()
-    _check_crank_fits(t, lengths)
-    crank = CrankshaftParams(throws=throws, crank_angles_deg=tuple(angles), **lengths, **flags)
-    check_kernel_resolution(crank, largest_extent(crank))
-    return crank
-
-
-def _check_crank_fits(t: Table, v: dict[str, float]) -> None:
-    """The pin must sit off the main axis, and each web must cover the journal and the
-    pin it joins (otherwise its edge would coincide with or cut into their surfaces)."""
-    if v["pin_diameter"] >= v["stroke"]:
-        raise t.error("pin_diameter", v["pin_diameter"],
-                      f"must be < stroke = {v['stroke']:g}: a pin at radius stroke/2 = "
-                      f"{v['stroke'] / 2:g} would enclose the main axis")
-    needed = max(v["journal_diameter"], v["pin_diameter"])
-    if v["web_width"] <= needed:
-        raise t.error("web_width", v["web_width"],
-                      f"must be > max(journal_diameter, pin_diameter) = {needed:g}: the web "
-                      "must cover the journal and the pin it joins")
-
-
-def largest_extent(geom: Geometry) -> float:
-    """The largest edge of the body's bounding box (m)."""
-    if isinstance(geom, BeamParams):
-        return max(geom.length, *geom.profile().outer.extent)
-    return geom.layout().largest_extent
-
-
 def geometry_keys(geom: Geometry) -> tuple[str, ...]:
     """The ``[geometry]`` keys that shape ``geom`` (besides ``kind``), for messages."""
     if isinstance(geom, BeamParams):
         return ("section", *geom.dimensions, "length")
-    return ("throws", "crank_angles_deg", *_CRANK_LENGTHS, "counterweights", "nose", "flange")
+    return ("throws", "crank_angles_deg", *CRANK_LENGTHS, "counterweights", "nose", "flange")
 
 
 def default_mesh_size(geom: Geometry) -> float:
@@ -234,31 +151,18 @@ def surface_groups(geom: Geometry) -> dict[str, int]:
     return groups.surface_tags(geom.throws if isinstance(geom, CrankshaftParams) else None)
 
 
-def parse_mesh(raw: Mapping[str, Any] | None, geom: Geometry) -> MeshParams:
-    """Validate ``[mesh]`` for the geometry ``geom``: ``size``, ``order``, ``refine``."""
-    t = Table("mesh", raw)
-    size = t.positive("size", default_mesh_size(geom))
-    order = t.integer("order", 2, low=1, high=2)
-    refine_raw = t.subtable("refine")
-    t.finish()
-    extent = largest_extent(geom)
-    if size > extent:
-        raise t.error("size", size, f"must be <= {extent:g}, the largest extent of the "
-                                    f"{geom.kind} (a mesh size larger than the body)")
-    check_mesh_resolution(geom, size, order)
-    return MeshParams(size=size, order=order, refine=_parse_refine(refine_raw, geom, size))
+def crank_violation(lengths: dict[str, float]) -> tuple[str, str] | None:
+    """(key, what is allowed) for crankshaft lengths that do not fit together, else None.
 
-
-def _parse_refine(raw: Mapping[str, Any], geom: Geometry, size: float) -> dict[str, float]:
-    t = Table("mesh.refine", raw)
-    names = list(surface_groups(geom))
-    refine = {}
-    for name in raw:
-        if name not in names:
-            raise t.error(name, raw[name],
-                          "unknown surface group (valid: " + ", ".join(names) + ")")
-        refine[name] = t.positive(name)
-        if refine[name] > size:
-            raise t.error(name, refine[name], f"must be <= [mesh] size = {size:g} "
-                                              "(a refinement coarser than the mesh does nothing)")
-    return refine
+    The pin must sit off the main axis, and each web must cover the journal and the pin it
+    joins (otherwise its edge would coincide with or cut into their surfaces).
+    """
+    if lengths["pin_diameter"] >= lengths["stroke"]:
+        return "pin_diameter", (f"must be < stroke = {lengths['stroke']:g}: a pin at radius "
+                                f"stroke/2 = {lengths['stroke'] / 2:g} would enclose the main "
+                                "axis")
+    needed = max(lengths["journal_diameter"], lengths["pin_diameter"])
+    if lengths["web_width"] <= needed:
+        return "web_width", (f"must be > max(journal_diameter, pin_diameter) = {needed:g}: the "
+                             "web must cover the journal and the pin it joins")
+    return None

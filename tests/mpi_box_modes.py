@@ -7,21 +7,24 @@ from mpi4py import MPI
 
 import numpy as np
 
-from gcms_fenicsx import basis, eigen, fe, selection
-from gcms_fenicsx.material import Material
-from gcms_fenicsx.modes_config import ModesConfig
+from gcms_fenicsx import pipeline
+from gcms_fenicsx.fe import algebra, mass
+from gcms_fenicsx.config.selection import SelectionConfig
+from gcms_fenicsx.reduction import basis, selection
+from gcms_fenicsx.config.material import Material
+from gcms_fenicsx.config.modes import ModesConfig
 
 mesh = create_box(MPI.COMM_WORLD, [[0, -0.02, -0.03], [0.6, 0.02, 0.03]], [24, 2, 3],
                   CellType.tetrahedron)
-model = fe.assemble(mesh, Material(), degree=2)
-modes = eigen.solve_free_free(model, ModesConfig(count=int(sys.argv[1])))
-mass = fe.mass_properties(model.Ms, model.nodes, model.material.rho)
+model = pipeline.assembly_stage(mesh, Material(), degree=2).model
+modes = pipeline.modes_stage(model, ModesConfig(count=int(sys.argv[1])))
+mass = mass.mass_properties(model.Ms, model.nodes, model.material.rho)
 fields = basis.field_basis(model, modes)
-kept = selection.select_fields(fields.gram_mass, selection.SelectionConfig(), fields.names).kept
+kept = selection.select_fields(fields.gram_mass, SelectionConfig(), fields.names).kept
 Kr = basis.reduced_stiffness(model, fields.fields[:, kept])
 # independently: Φᵀ (K Φ) with the dense Φ and PETSc's distributed product
 Phi = basis.phi_dense(fields.fields[:, kept])
-kr_defect = float(np.abs(fe.gram(MPI.COMM_WORLD, Phi, fe.mat_dense(model.K, Phi)) - Kr).max()
+kr_defect = float(np.abs(algebra.gram(MPI.COMM_WORLD, Phi, algebra.mat_dense(model.K, Phi)) - Kr).max()
                   / np.abs(Kr).max())
 Mr = basis.reduced_mass(fields.gram_mass[np.ix_(kept, kept)])
 reduced = np.linalg.eigvalsh(np.linalg.solve(np.linalg.cholesky(Mr), np.linalg.solve(

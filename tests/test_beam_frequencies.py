@@ -7,11 +7,13 @@ import pytest
 from mpi4py import MPI
 
 from beam_theory import bar_hz, cowper_kappa, rectangle_torsion_constant, timoshenko_hz, torsion_hz
-from gcms_fenicsx import eigen, fe
-from gcms_fenicsx.material import Material
-from gcms_fenicsx.mesh import read_mesh
-from gcms_fenicsx.modes_config import ModesConfig
-from geometry import build_msh, parse_geometry, parse_mesh
+from gcms_fenicsx import pipeline
+from gcms_fenicsx.fe import algebra, assembly, modes
+from gcms_fenicsx.config.material import Material
+from gcms_fenicsx.fe.mesh import read_mesh
+from gcms_fenicsx.config.modes import ModesConfig
+from geometry import build_msh
+from gcms_fenicsx.config.geometry import parse_geometry, parse_mesh
 
 STEEL = Material()
 G = STEEL.E / (2 * (1 + STEEL.nu))
@@ -19,7 +21,7 @@ L = 1.0
 WIDTH, HEIGHT, RADIUS = 0.05, 0.04, 0.025  # rectangle b × h (L/b = 20), circle L/d = 20
 
 
-def classify(model: fe.FEModel, modes: eigen.Modes) -> list[str]:
+def classify(model: assembly.FEModel, modes: modes.Modes) -> list[str]:
     """Name each elastic mode by its M-weighted content: axial (u_x), torsion ((u_y, u_z)
     tangential to circles about the axis), or bending in y or z; a bending pair of a round
     section, in whatever basis the solver returns it, is 'bending'."""
@@ -47,8 +49,8 @@ def classify(model: fe.FEModel, modes: eigen.Modes) -> list[str]:
     return out
 
 
-def _ms(model: fe.FEModel, values: np.ndarray) -> np.ndarray:
-    return fe.mat_dense(model.Ms, values[:, None])[:, 0]
+def _ms(model: assembly.FEModel, values: np.ndarray) -> np.ndarray:
+    return algebra.mat_dense(model.Ms, values[:, None])[:, 0]
 
 
 def _solve(tmp_path, geometry: dict, mesh_table: dict | None = None):
@@ -56,8 +58,8 @@ def _solve(tmp_path, geometry: dict, mesh_table: dict | None = None):
     mesh = parse_mesh(mesh_table or {}, geom)
     info = build_msh(geom, mesh, tmp_path / "beam.msh")
     body = read_mesh(tmp_path / "beam.msh", info.groups, MPI.COMM_SELF)
-    model = fe.assemble(body.mesh, STEEL)
-    modes = eigen.solve_free_free(model, ModesConfig(count=12))
+    model = pipeline.assembly_stage(body.mesh, STEEL).model
+    modes = pipeline.modes_stage(model, ModesConfig(count=12))
     return model, modes, classify(model, modes), mesh.size
 
 

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from conftest import REPO, gcms, mpirun
-from gcms_fenicsx.config import default_config_text, load_config
-from gcms_fenicsx.validation import ConfigError
+from gcms_fenicsx.config.study import default_config_text, load_config
+from gcms_fenicsx.config.table import ConfigError
 
 BEAM = """
 [geometry]

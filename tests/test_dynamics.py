@@ -21,8 +21,8 @@ from gcms_fenicsx.dynamics.joints import build_constraints
 from gcms_fenicsx.dynamics.rotation import rotation_about, skew
 from gcms_fenicsx.dynamics.scene import parse_scene
 from gcms_fenicsx.dynamics.simulate import elastic_modes, modal_history, simulate_body
-from gcms_fenicsx.dynamics.spectra import peak_frequency_hz
-from gcms_fenicsx.reduced_model import read_reduced
+from gcms_fenicsx.references.spectra import peak_frequency_hz
+from gcms_fenicsx.files.reduced_model import read_reduced
 
 EPS = np.finfo(float).eps
 LENGTH, WIDTH_Y, HEIGHT_Z = 0.5, 0.03, 0.02

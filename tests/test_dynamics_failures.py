@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from gcms_fenicsx.dynamics.body import body_from_reduced
-from gcms_fenicsx.dynamics.integrator import AlphaParameters
+from gcms_fenicsx.dynamics.alpha import AlphaParameters
 from gcms_fenicsx.dynamics.scene import SceneError, parse_scene
 from gcms_fenicsx.dynamics.simulate import elastic_modes, simulate_body
-from gcms_fenicsx.reduced_model import read_reduced
+from gcms_fenicsx.files.reduced_model import read_reduced
 
 EPS = np.finfo(float).eps
 NUMBER = r"[-+0-9.e]+"

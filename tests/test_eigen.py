@@ -11,10 +11,11 @@ from dolfinx.mesh import CellType, create_box
 
 from beam_theory import cowper_kappa, euler_bernoulli_hz, timoshenko_hz
 from symmetric_mesh import symmetric_box
-from gcms_fenicsx import eigen, fe
-from gcms_fenicsx.material import Material
-from gcms_fenicsx.modes_config import ModesConfig, parse_modes
-from gcms_fenicsx.validation import ConfigError
+from gcms_fenicsx import pipeline
+from gcms_fenicsx.fe import algebra, eigensolve, factor, mass, verification
+from gcms_fenicsx.config.material import Material
+from gcms_fenicsx.config.modes import ModesConfig, parse_modes
+from gcms_fenicsx.config.table import ConfigError
 
 STEEL = Material()
 
@@ -29,8 +30,8 @@ def _beam(n: int, length: float = 1.0, side: float = 0.05, symmetric: bool = Fal
 
 @pytest.fixture(scope="module")
 def square_modes():
-    model = fe.assemble(_beam(1, symmetric=True), STEEL, degree=2)
-    return model, eigen.solve_free_free(model, ModesConfig(count=10))
+    model = pipeline.assembly_stage(_beam(1, symmetric=True), STEEL, degree=2).model
+    return model, pipeline.modes_stage(model, ModesConfig(count=10))
 
 
 def test_solver_checks_hold(square_modes):
@@ -57,10 +58,10 @@ def test_slender_beams_solve_and_match_beam_theory(slenderness, across):
     side, length = 0.01, 0.01 * slenderness
     mesh = create_box(MPI.COMM_WORLD, [[0, -side / 2, -side / 2], [length, side / 2, side / 2]],
                       [slenderness * across, across, across], CellType.tetrahedron)
-    model = fe.assemble(mesh, STEEL, degree=2)
-    modes = eigen.solve_free_free(model, ModesConfig(count=2))  # raises if a check fails
+    model = pipeline.assembly_stage(mesh, STEEL, degree=2).model
+    modes = pipeline.modes_stage(model, ModesConfig(count=2))  # raises if a check fails
     v = modes.verification
-    assert v.backward_errors.max() < 100 * eigen.EPS  # measured 3e-16 and 4e-16
+    assert v.backward_errors.max() < 100 * verification.EPS  # measured 3e-16 and 4e-16
     # cancellation in Kφ: the old measure is 1e9 to 1e12 times the backward error here
     assert modes.relative_residuals[6:].max() > 1e8 * v.backward_errors.max()
     ref = euler_bernoulli_hz(1, STEEL.E, side ** 4 / 12, STEEL.rho, side ** 2, length)
@@ -68,7 +69,7 @@ def test_slender_beams_solve_and_match_beam_theory(slenderness, across):
 
 
 def _verified(model, modes, vectors=None, eigenvalues=None):
-    return eigen.verify(model, modes.eigenvalues if eigenvalues is None else eigenvalues,
+    return verification.verify(model, modes.eigenvalues if eigenvalues is None else eigenvalues,
                         modes.vectors if vectors is None else vectors, 1e-10, modes.shift,
                         modes.verification.check_shift)
 
@@ -81,7 +82,7 @@ def test_verification_fails_a_perturbed_vector(square_modes):
     assert not _verified(model, modes).problems(modes.eigenvalues, 6)
     noise = np.random.default_rng(3).standard_normal(modes.vectors.shape[0])
     noisy = modes.vectors.copy()
-    noisy[:, 8] += 1e-7 * noise / np.sqrt(noise @ fe.mass_dense(model, noise[:, None])[:, 0])
+    noisy[:, 8] += 1e-7 * noise / np.sqrt(noise @ mass.mass_dense(model, noise[:, None])[:, 0])
     problems = _verified(model, modes, noisy).problems(modes.eigenvalues, 6)
     assert re.fullmatch(r"backward error \S+ of mode 8 > 1\.0e-10", problems[0]), problems
     mixed = modes.vectors.copy()
@@ -106,30 +107,30 @@ def test_matrix_free_mass_equals_the_assembled_mass(square_modes):
     """The Ms ⊗ I3 operator the solver multiplies by reproduces the assembled M (DESIGN §2)."""
     model, _ = square_modes
     X = np.random.default_rng(1).standard_normal((3 * model.nodes.shape[0], 4))
-    expected = fe.mat_dense(model.M, X)
+    expected = algebra.mat_dense(model.M, X)
     scale = np.abs(expected).max()
-    assert np.abs(fe.mass_dense(model, X) - expected).max() < 1e-13 * scale
+    assert np.abs(mass.mass_dense(model, X) - expected).max() < 1e-13 * scale
     x, y = model.M.createVecs()
     x.array[:] = X[:, 0]
-    fe.kron_mass_operator(model).mult(x, y)
+    mass.kron_mass_operator(model).mult(x, y)
     assert np.abs(y.array - expected[:, 0]).max() < 1e-13 * scale
 
 
 def test_purification_shrinks_the_residual_of_a_perturbed_mode(square_modes):
     """One shift-invert step damps a high-frequency error by (λ − σ)/(λ_high − σ)."""
     model, modes = square_modes
-    ksp = eigen.factorised(model, modes.shift)
+    ksp = factor.factorised(model, modes.shift)
     exact = modes.elastic_vectors[:, :3]
     noise = np.random.default_rng(2).standard_normal(exact.shape)
-    noise -= exact @ (exact.T @ fe.mass_dense(model, noise))  # M-orthogonal to the modes
-    rough = exact + 1e-3 * noise / np.sqrt(np.sum(noise * fe.mass_dense(model, noise), axis=0))
-    clean = eigen.purified(model, ksp.getPC().getFactorMatrix(), rough)
-    assert np.allclose(np.sum(clean * fe.mass_dense(model, clean), axis=0), 1.0, atol=1e-12)
+    noise -= exact @ (exact.T @ mass.mass_dense(model, noise))  # M-orthogonal to the modes
+    rough = exact + 1e-3 * noise / np.sqrt(np.sum(noise * mass.mass_dense(model, noise), axis=0))
+    clean = eigensolve.purified(model, ksp.getPC().getFactorMatrix(), rough)
+    assert np.allclose(np.sum(clean * mass.mass_dense(model, clean), axis=0), 1.0, atol=1e-12)
 
     def residual(Y):  # ‖Kφ − λMφ‖ / ‖Kφ‖ per column
-        KY = fe.mat_dense(model.K, Y)
+        KY = algebra.mat_dense(model.K, Y)
         lam = modes.elastic_eigenvalues[:3]
-        return np.linalg.norm(KY - fe.mass_dense(model, Y) * lam, axis=0) / np.linalg.norm(KY, axis=0)
+        return np.linalg.norm(KY - mass.mass_dense(model, Y) * lam, axis=0) / np.linalg.norm(KY, axis=0)
 
     assert np.all(residual(clean) < 1e-2 * residual(rough))
     ksp.destroy()
@@ -144,8 +145,8 @@ def test_square_beam_bending_pairs_are_repeated_on_a_symmetric_mesh(square_modes
 
 
 def test_unsymmetric_mesh_reports_near_repeated_pairs():
-    model = fe.assemble(_beam(2), STEEL, degree=2)
-    modes = eigen.solve_free_free(model, ModesConfig(count=4))
+    model = pipeline.assembly_stage(_beam(2), STEEL, degree=2).model
+    modes = pipeline.modes_stage(model, ModesConfig(count=4))
     first = modes.clusters()[0]
     assert first["modes"] == [0, 1]
     assert 1e-6 < first["relative_split"] < 1e-3 and not first["repeated"]
@@ -157,7 +158,7 @@ def _observed_order(degree: int, ns: tuple[int, ...]) -> np.ndarray:
     for n in ns:
         mesh = create_box(MPI.COMM_WORLD, [[0, 0, 0], [0.1, 0.05, 0.05]], [2 * n, n, n],
                           CellType.tetrahedron)
-        modes = eigen.solve_free_free(fe.assemble(mesh, STEEL, degree), ModesConfig(count=4))
+        modes = pipeline.modes_stage(pipeline.assembly_stage(mesh, STEEL, degree).model, ModesConfig(count=4))
         lam.append(modes.elastic_eigenvalues)
     diff = np.diff(np.array(lam), axis=0)
     assert np.all(diff < 0)  # conforming Rayleigh–Ritz: monotone from above
@@ -188,27 +189,27 @@ def test_bending_matches_timoshenko_on_a_box_mesh(square_modes):
 def test_max_frequency_returns_every_mode_below_it(square_modes):
     model, modes = square_modes
     cut = 0.5 * (modes.elastic_frequencies_hz[5] + modes.elastic_frequencies_hz[6])
-    below = eigen.solve_free_free(model, ModesConfig(count=None, max_frequency_hz=cut))
+    below = pipeline.modes_stage(model, ModesConfig(count=None, max_frequency_hz=cut))
     assert len(below.elastic_eigenvalues) == 6
     np.testing.assert_allclose(below.elastic_eigenvalues, modes.elastic_eigenvalues[:6], rtol=1e-9)
 
 
 def test_no_mode_below_max_frequency_is_an_error(square_modes):
     model, modes = square_modes
-    with pytest.raises(eigen.EigenSolveError, match="no elastic mode below max_frequency_hz"):
-        eigen.solve_free_free(model, ModesConfig(count=None, max_frequency_hz=1.0))
+    with pytest.raises(eigensolve.EigenSolveError, match="no elastic mode below max_frequency_hz"):
+        pipeline.modes_stage(model, ModesConfig(count=None, max_frequency_hz=1.0))
 
 
 def test_too_many_modes_is_an_error():
-    model = fe.assemble(_beam(1, length=0.1), STEEL, degree=1)
-    with pytest.raises(eigen.EigenSolveError, match="degrees of freedom"):
-        eigen.solve_free_free(model, ModesConfig(count=model.ndofs))
+    model = pipeline.assembly_stage(_beam(1, length=0.1), STEEL, degree=1).model
+    with pytest.raises(eigensolve.EigenSolveError, match="degrees of freedom"):
+        pipeline.modes_stage(model, ModesConfig(count=model.ndofs))
 
 
 def test_solver_that_does_not_converge_is_an_error(square_modes):
     model, _ = square_modes
-    with pytest.raises(eigen.EigenSolveError, match=r"converged \d+ of 11 eigenpairs in 1 iter"):
-        eigen.solve_free_free(model, ModesConfig(count=10, max_iterations=1, tolerance=1e-14))
+    with pytest.raises(eigensolve.EigenSolveError, match=r"converged \d+ of 11 eigenpairs in 1 iter"):
+        pipeline.modes_stage(model, ModesConfig(count=10, max_iterations=1, tolerance=1e-14))
 
 
 @pytest.mark.parametrize("table, key", [

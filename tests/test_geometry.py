@@ -15,12 +15,14 @@ import ufl
 from dolfinx import fem
 from mpi4py import MPI
 
-from gcms_fenicsx.mesh import read_mesh
-from gcms_fenicsx.validation import ConfigError
-from geometry import MeshInfo, MeshParams, build_msh, parse_geometry, parse_mesh, section_area
+from gcms_fenicsx.fe.mesh import read_mesh
+from gcms_fenicsx.config.table import ConfigError
+from geometry.errors import GeometryError
+from geometry import MeshInfo, MeshParams, build_msh, section_area
+from gcms_fenicsx.config.geometry import parse_geometry, parse_mesh
 from geometry.crankshaft import add_crankshaft
 from geometry.meshing import gmsh_initialized, gmsh_session
-from test_geometry_params import ANALYTIC_AREAS
+from test_config_geometry import ANALYTIC_AREAS
 
 LENGTH = 0.1
 
@@ -219,7 +221,7 @@ def test_folded_curved_cells_are_rejected_without_a_file(tmp_path):
                            "thickness": 0.0005, "length": 0.05})
     with pytest.raises(ConfigError, match=r"^\[geometry\] thickness = 0.0005: the wall"):
         parse_mesh({"size": 0.01}, geom)
-    with pytest.raises(ConfigError, match=r"^\[mesh\] size = 0.01: folds \d+ curved"):
+    with pytest.raises(GeometryError, match=r"^\[mesh\] size = 0.01: folds \d+ curved"):
         build_msh(geom, MeshParams(size=0.01, order=2), tmp_path / "mesh.msh")
     assert list(tmp_path.iterdir()) == [] and not gmsh_initialized()
     build_msh(geom, MeshParams(size=0.01, order=1), tmp_path / "mesh.msh")

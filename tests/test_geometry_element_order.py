@@ -8,11 +8,12 @@ import pytest
 from mpi4py import MPI
 
 from beam_theory import cowper_kappa, timoshenko_hz
-from gcms_fenicsx import eigen, fe
-from gcms_fenicsx.material import Material
-from gcms_fenicsx.mesh import read_mesh
-from gcms_fenicsx.modes_config import ModesConfig
-from geometry import build_msh, parse_geometry, parse_mesh
+from gcms_fenicsx import pipeline
+from gcms_fenicsx.config.material import Material
+from gcms_fenicsx.fe.mesh import read_mesh
+from gcms_fenicsx.config.modes import ModesConfig
+from geometry import build_msh
+from gcms_fenicsx.config.geometry import parse_geometry, parse_mesh
 from geometry.element_order import WARNING_THRESHOLD, element_order_warning, p1_frequency_error
 from test_beam_frequencies import classify
 
@@ -30,8 +31,8 @@ def first_bending_hz(tmp_path, geometry: dict, mesh: dict) -> float:
     params = parse_mesh(mesh, geom)
     path = tmp_path / f"o{params.order}.msh"
     info = build_msh(geom, params, path)
-    model = fe.assemble(read_mesh(path, info.groups, MPI.COMM_SELF).mesh, STEEL)
-    modes = eigen.solve_free_free(model, ModesConfig(count=4))
+    model = pipeline.assembly_stage(read_mesh(path, info.groups, MPI.COMM_SELF).mesh, STEEL).model
+    modes = pipeline.modes_stage(model, ModesConfig(count=4))
     kinds = classify(model, modes)
     return min(f for f, kind in zip(modes.elastic_frequencies_hz, kinds)
                if kind.startswith("bending"))

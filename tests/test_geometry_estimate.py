@@ -12,7 +12,8 @@ import sys
 
 import pytest
 
-from geometry import build_msh, parse_geometry, parse_mesh
+from geometry import build_msh
+from gcms_fenicsx.config.geometry import parse_geometry, parse_mesh
 from geometry.estimate import MeshEstimate, estimate_mesh
 
 FACTOR = 2.0
@@ -68,7 +69,7 @@ def test_a_runaway_size_is_seen_before_meshing():
 
 
 def test_estimating_does_not_load_gmsh():
-    code = ("import sys; from geometry import parse_geometry, parse_mesh; "
+    code = ("import sys; from gcms_fenicsx.config.geometry import parse_geometry, parse_mesh; "
             "from geometry.estimate import estimate_mesh; "
             "g = parse_geometry({'kind': 'crankshaft'}); estimate_mesh(g, parse_mesh(None, g)); "
             "assert 'gmsh' not in sys.modules")

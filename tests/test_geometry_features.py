@@ -10,8 +10,10 @@ import gmsh
 import numpy as np
 import pytest
 
-from gcms_fenicsx.validation import ConfigError
-from geometry import build_msh, parse_geometry, parse_mesh
+from gcms_fenicsx.config.table import ConfigError
+from geometry.errors import GeometryError
+from geometry import build_msh
+from gcms_fenicsx.config.geometry import parse_geometry, parse_mesh
 from geometry.features import KERNEL_RESOLUTION, MIN_FEATURE_PER_SIZE, features
 from geometry.meshing import TETRAHEDRON, gmsh_initialized, gmsh_session
 
@@ -137,7 +139,8 @@ def test_a_tube_wall_at_the_allowed_ratio_meshes_into_valid_cells(tmp_path, orde
 def test_kernel_failure_is_a_config_error_naming_the_keys(tmp_path, monkeypatch, geometry,
                                                            patched, message, key):
     """Gmsh raises a bare Exception with the kernel's last error; build_msh reports it in
-    one line with the geometry's keys and the mesh size, writes nothing, finalizes Gmsh."""
+    one line (a GeometryError, the configuration's ConfigError in a command) with the
+    geometry's keys and the mesh size, writes nothing, finalizes Gmsh."""
     geom = parse_geometry(geometry)
     mesh = parse_mesh({"size": 0.02}, geom)
 
@@ -145,7 +148,7 @@ def test_kernel_failure_is_a_config_error_naming_the_keys(tmp_path, monkeypatch,
         raise Exception(message)
 
     monkeypatch.setattr(patched, fail)
-    with pytest.raises(ConfigError) as caught:
+    with pytest.raises(GeometryError) as caught:
         build_msh(geom, mesh, tmp_path / "m.msh")
     text = str(caught.value)
     assert text.startswith(key + ": the geometry kernel could not build or mesh")
@@ -163,7 +166,7 @@ def test_a_fusion_into_two_solids_is_a_config_error(tmp_path, monkeypatch):
     fuse = gmsh.model.occ.fuse
     monkeypatch.setattr("gmsh.model.occ.fuse",
                         lambda a, b, **kw: fuse(a, b, **kw) if len(b) < 4 else (a + b, []))
-    with pytest.raises(ConfigError, match=r"^\[geometry\] kind = 'crankshaft': .*fusion gave"):
+    with pytest.raises(GeometryError, match=r"^\[geometry\] kind = 'crankshaft': .*fusion gave"):
         build_msh(geom, parse_mesh({"size": 0.02}, geom), tmp_path / "m.msh")
 
 

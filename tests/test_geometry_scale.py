@@ -8,7 +8,8 @@ import gmsh
 import numpy as np
 import pytest
 
-from geometry import build_msh, parse_geometry, parse_mesh
+from geometry import build_msh
+from gcms_fenicsx.config.geometry import parse_geometry, parse_mesh
 from geometry.meshing import gmsh_session
 from geometry.params import CRANKSHAFT_DEFAULTS
 

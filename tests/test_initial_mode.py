@@ -16,8 +16,8 @@ from gcms_fenicsx.dynamics.initial import (TIE, mode_cluster, nodal_displacement
                                            oriented_shape)
 from gcms_fenicsx.dynamics.scene import Initial, parse_scene
 from gcms_fenicsx.dynamics.simulate import elastic_modes, initial_coordinates
-from gcms_fenicsx.reduced_model import read_reduced
-from gcms_fenicsx.validation import ConfigError
+from gcms_fenicsx.files.reduced_model import read_reduced
+from gcms_fenicsx.config.table import ConfigError
 
 EPS = np.finfo(float).eps
 DIRECTION = np.array([0.0, 1.0, 2.0]) / np.sqrt(5.0)

@@ -17,16 +17,15 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from gcms_fenicsx import eigen, fe, pendulum
-from gcms_fenicsx.config import parse_config
+from gcms_fenicsx import pipeline
+from gcms_fenicsx.references import pendulum
+from gcms_fenicsx.config.study import parse_config
 from gcms_fenicsx.dynamics.body import body_from_reduced
 from gcms_fenicsx.dynamics.corotated import elastic_state
 from gcms_fenicsx.dynamics.rotation import rotation_about
 from gcms_fenicsx.dynamics.simulate import simulate_body
-from gcms_fenicsx.full_order import full_order_body, sparse_factorization, svk_elastic
-from gcms_fenicsx.node_groups import group_weights
-from gcms_fenicsx.pipeline import meshed_body
-from gcms_fenicsx.reduce import reduce_body
+from gcms_fenicsx.references.full_order import full_order_body, sparse_factorization, svk_elastic
+from gcms_fenicsx.fe.node_groups import group_weights
 
 logging.disable(logging.INFO)
 
@@ -35,12 +34,12 @@ logging.disable(logging.INFO)
 def case(tmp_path_factory):
     """The pendulum's mesh, FE model, 20 free-free modes, full-order body and rigid pendulum."""
     cfg = parse_config(dict(pendulum.STUDY, modes={"count": 20}))
-    _, body_mesh = meshed_body(cfg, tmp_path_factory.mktemp("pendulum"))
-    model = fe.assemble(body_mesh.mesh, cfg.material)
-    modes = eigen.solve_free_free(model, cfg.modes)
-    full = full_order_body(model, group_weights(body_mesh, model.Vs))
+    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes,
+                               tmp_path_factory.mktemp("pendulum"))
+    model = chain.assembly.model
+    full = full_order_body(model, group_weights(chain.body, model.Vs))
     rigid = pendulum.rigid_pendulum(full, np.array(cfg.scene.gravity), cfg.scene.end_time_s)
-    return cfg, body_mesh, model, modes, full, rigid
+    return cfg, chain.body, model, chain.modes, full, rigid
 
 
 def _deviation(case, body, scene, **kwargs):
@@ -52,9 +51,8 @@ def _deviation(case, body, scene, **kwargs):
 
 def _gcms(case, nm: int):
     cfg, body_mesh, model, modes, *_ = case
-    reduced, _ = reduce_body(model, modes.lowest(nm), body_mesh,
-                             replace(cfg, modes=replace(cfg.modes, count=nm)), {})
-    return body_from_reduced(reduced)
+    reduction = pipeline.reduction_stage(model, modes.lowest(nm), body_mesh, cfg.selection)
+    return body_from_reduced(pipeline.reduced_model(reduction))
 
 
 @pytest.mark.parametrize("damping_beta_s, modes_within_1_percent", [(0.0, 20), (4e-3, 10)])

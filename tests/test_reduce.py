@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from conftest import gcms, gcms_reduce, strict_json
-from gcms_fenicsx.reduced_model import read_reduced
+from gcms_fenicsx.files.reduced_model import read_reduced
 
 BEAM = """
 [geometry]
@@ -156,7 +156,7 @@ def test_slender_beam_keeps_its_poisson_fields_by_default(tmp_path):
     cosine_tolerance 1e-12 (a relative difference of 1.4e-6) keeps them and the pruning
     error stays below 1e-4; the former default 1e-6 dropped them and stiffened the pairs by
     about 10 %."""
-    from gcms_fenicsx.pendulum import STUDY
+    from gcms_fenicsx.references.pendulum import STUDY
 
     text = "\n".join(f"[{table}]\n" + "\n".join(f"{k} = {json.dumps(v)}"
                                                 for k, v in STUDY[table].items())

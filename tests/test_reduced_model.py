@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from conftest import REPO
-from gcms_fenicsx import reduced_model as rm
-from gcms_fenicsx.versioned_file import seal
+from gcms_fenicsx.files import reduced_model as rm
+from gcms_fenicsx.files.versioned import seal
 
 ARRAYS = ("mass", "stiffness", "gravity", "fields", "nodes_m", "frequencies_hz",
           "reduced_frequencies_hz")
@@ -255,7 +255,7 @@ class Block(importlib.abc.MetaPathFinder):
         if name.split(".")[0] in BLOCKED:
             raise ImportError(f"{{name}} is blocked")
 sys.meta_path.insert(0, Block())
-from gcms_fenicsx.reduced_model import read_reduced
+from gcms_fenicsx.files.reduced_model import read_reduced
 model = read_reduced({str(written)!r})
 print(model.dofs, model.position(model.undeformed_coordinates(), "corner").round(12).tolist())
 """

@@ -16,7 +16,7 @@ from gcms_fenicsx.dynamics.body import body_from_reduced
 from gcms_fenicsx.dynamics.joints import build_constraints, independent_rows
 from gcms_fenicsx.dynamics.scene import SceneError, parse_scene
 from gcms_fenicsx.dynamics.simulate import simulate_body
-from gcms_fenicsx.reduced_model import read_reduced
+from gcms_fenicsx.files.reduced_model import read_reduced
 
 EPS = np.finfo(float).eps
 

@@ -17,15 +17,15 @@ import pytest
 
 from gcms_fenicsx.dynamics import results
 from gcms_fenicsx.dynamics.body import body_from_reduced
-from gcms_fenicsx.dynamics.budget import Capacity, check_capacity
+from gcms_fenicsx.dynamics.capacity import Capacity, check_capacity
 from gcms_fenicsx.dynamics.joints import build_constraints
 from gcms_fenicsx.dynamics.recorder import record_plan
 from gcms_fenicsx.dynamics.results import RESULTS_SCHEMA_VERSION, ResultsError, read_results
 from gcms_fenicsx.dynamics.scene import SceneError, parse_scene
 from gcms_fenicsx.dynamics.simulate import simulate, simulate_body, simulate_to_file
-from gcms_fenicsx.plots import plot_results, read_plot_data
-from gcms_fenicsx.reduced_model import read_reduced
-from gcms_fenicsx.versioned_file import dataset_digest
+from gcms_fenicsx.files.plots import plot_results, read_plot_data
+from gcms_fenicsx.files.reduced_model import read_reduced
+from gcms_fenicsx.files.versioned import dataset_digest
 from test_simulate_cli import assert_one_line_error, contents, output_folder, standalone, study
 
 #: The module (the package's ``simulate`` is the function of that name).

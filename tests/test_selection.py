@@ -10,10 +10,13 @@ from petsc4py import PETSc
 from dolfinx.mesh import CellType, create_box
 
 from symmetric_mesh import symmetric_box
-from gcms_fenicsx import basis, eigen, fe, selection
-from gcms_fenicsx.material import Material
-from gcms_fenicsx.modes_config import ModesConfig
-from gcms_fenicsx.validation import ConfigError
+from gcms_fenicsx import pipeline
+from gcms_fenicsx.fe import algebra
+from gcms_fenicsx.reduction import basis, selection
+from gcms_fenicsx.config.material import Material
+from gcms_fenicsx.config.modes import ModesConfig
+from gcms_fenicsx.config.selection import SelectionConfig, parse_selection
+from gcms_fenicsx.config.table import ConfigError
 
 STEEL = Material()
 
@@ -32,18 +35,18 @@ def _reduced_eigenvalues(model, B, kept) -> np.ndarray:
 def square():
     """Square beam on a symmetric mesh: its first bending pair, in whatever basis SLEPc picks."""
     mesh = symmetric_box(MPI.COMM_WORLD, [0, -0.025, -0.025], [1, 0.025, 0.025], [20, 1, 1])
-    model = fe.assemble(mesh, STEEL, degree=2)
-    modes = eigen.solve_free_free(model, ModesConfig(count=2))
+    model = pipeline.assembly_stage(mesh, STEEL, degree=2).model
+    modes = pipeline.modes_stage(model, ModesConfig(count=2))
     return model, modes, basis.field_basis(model, modes)
 
 
 def test_reduced_mass_is_the_kronecker_gram(square):
     model, _, B = square
     Phi = basis.phi_dense(B.fields)
-    np.testing.assert_allclose(basis.reduced_mass(B.gram_mass), Phi.T @ fe.mat_dense(model.M, Phi),
+    np.testing.assert_allclose(basis.reduced_mass(B.gram_mass), Phi.T @ algebra.mat_dense(model.M, Phi),
                                rtol=1e-12, atol=1e-12 * B.gram_mass.max())
     Kr = basis.reduced_stiffness(model, B.fields)
-    np.testing.assert_allclose(Kr, Phi.T @ fe.mat_dense(model.K, Phi), rtol=1e-10,
+    np.testing.assert_allclose(Kr, Phi.T @ algebra.mat_dense(model.K, Phi), rtol=1e-10,
                                atol=1e-10 * np.abs(Kr).max())
 
 
@@ -83,8 +86,8 @@ def test_rayleigh_ritz_identity_without_pruning():
     full model's (DESIGN §3)."""
     mesh = create_box(MPI.COMM_WORLD, [[0, -0.02, -0.03], [0.6, 0.02, 0.03]], [12, 2, 2],
                       CellType.tetrahedron)
-    model = fe.assemble(mesh, STEEL, degree=2)
-    modes = eigen.solve_free_free(model, ModesConfig(count=6))
+    model = pipeline.assembly_stage(mesh, STEEL, degree=2).model
+    modes = pipeline.modes_stage(model, ModesConfig(count=6))
     B = basis.field_basis(model, modes)
     lam = _reduced_eigenvalues(model, B, np.arange(B.field_count))
     assert np.all(np.abs(lam[:6]) < 1e-8 * modes.eigenvalues[6])
@@ -102,14 +105,14 @@ def test_square_beam_first_bending_pair(square):
     The default 1e-6 drops only the one dependency left at 4e-7 (15 columns, error 1e-6).
     """
     model, modes, B = square
-    loose = selection.select_fields(B.gram_mass, selection.SelectionConfig(1e-4, 1e-4), B.names)
+    loose = selection.select_fields(B.gram_mass, SelectionConfig(1e-4, 1e-4), B.names)
     assert 3 * (len(loose.kept) - 4) == 9
     assert {d["field"] for d in loose.dropped} == {"phi1_z", "phi2_y", "phi2_z"}
     assert all(d["stage"] == "cosine" and abs(d["cosine"]) > 1 - 1e-4 for d in loose.dropped)
     locked = _reduced_eigenvalues(model, B, loose.kept)[6:8] / modes.elastic_eigenvalues
     assert np.all(locked > 1.1), locked
 
-    default = selection.select_fields(B.gram_mass, selection.SelectionConfig(), B.names)
+    default = selection.select_fields(B.gram_mass, SelectionConfig(), B.names)
     assert 3 * (len(default.kept) - 4) == 15
     lam = _reduced_eigenvalues(model, B, default.kept)
     np.testing.assert_allclose(lam[6:8], modes.elastic_eigenvalues, rtol=1e-4)
@@ -127,13 +130,13 @@ def _rotation(seed: int) -> np.ndarray:
 
 def test_selection_is_invariant_under_rotation_and_translation_of_the_mesh(square):
     model, modes, B = square
-    ref = selection.select_fields(B.gram_mass, selection.SelectionConfig(), B.names)
+    ref = selection.select_fields(B.gram_mass, SelectionConfig(), B.names)
     mesh = symmetric_box(MPI.COMM_WORLD, [0, -0.025, -0.025], [1, 0.025, 0.025], [20, 1, 1])
     mesh.geometry.x[:] = mesh.geometry.x @ _rotation(3).T + np.array([0.3, -2.0, 5.0])
-    moved = fe.assemble(mesh, STEEL, degree=2)
-    moved_modes = eigen.solve_free_free(moved, ModesConfig(count=2))
+    moved = pipeline.assembly_stage(mesh, STEEL, degree=2).model
+    moved_modes = pipeline.modes_stage(moved, ModesConfig(count=2))
     moved_B = basis.field_basis(moved, moved_modes)
-    sel = selection.select_fields(moved_B.gram_mass, selection.SelectionConfig(), moved_B.names)
+    sel = selection.select_fields(moved_B.gram_mass, SelectionConfig(), moved_B.names)
     assert len(sel.kept) == len(ref.kept)
     np.testing.assert_allclose(sel.singular_values, ref.singular_values, rtol=1e-6, atol=1e-9)
     np.testing.assert_allclose(_reduced_eigenvalues(moved, moved_B, sel.kept)[6:10],
@@ -148,7 +151,7 @@ def test_selection_is_invariant_under_rotation_and_translation_of_the_mesh(squar
 ])
 def test_bad_selection_table_names_the_key(table, key):
     with pytest.raises(ConfigError, match=rf"\[selection\] {key} ="):
-        selection.parse_selection(table)
+        parse_selection(table)
 
 
 def test_selection_is_invariant_under_a_mixed_basis_of_the_repeated_pair(square):
@@ -160,12 +163,12 @@ def test_selection_is_invariant_under_a_mixed_basis_of_the_repeated_pair(square)
     from dataclasses import replace
 
     model, modes, B = square
-    ref = selection.select_fields(B.gram_mass, selection.SelectionConfig(), B.names)
+    ref = selection.select_fields(B.gram_mass, SelectionConfig(), B.names)
     c, s = np.cos(0.7), np.sin(0.7)
     pair = modes.vectors[:, 6:8] @ np.array([[c, -s], [s, c]])
     mixed = replace(modes, vectors=np.hstack([modes.vectors[:, :6], pair]))
     mixed_B = basis.field_basis(model, mixed)
-    sel = selection.select_fields(mixed_B.gram_mass, selection.SelectionConfig(), mixed_B.names)
+    sel = selection.select_fields(mixed_B.gram_mass, SelectionConfig(), mixed_B.names)
     assert len(sel.kept) == len(ref.kept)
     np.testing.assert_allclose(sel.singular_values, ref.singular_values, rtol=1e-6, atol=1e-9)
     mixed_lam = _reduced_eigenvalues(model, mixed_B, sel.kept)[6:8]

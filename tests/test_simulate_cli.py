@@ -17,8 +17,8 @@ import pytest
 from conftest import REPO, gcms
 from gcms_fenicsx.dynamics.results import (RESULTS_SCHEMA_VERSION, ResultsError, Trajectory,
                                            read_results, write_results)
-from gcms_fenicsx.reduced_model import read_reduced
-from gcms_fenicsx.versioned_file import seal
+from gcms_fenicsx.files.reduced_model import read_reduced
+from gcms_fenicsx.files.versioned import seal
 from test_dynamics import beam_study
 
 #: A cantilever under gravity for 10 ms: cheap, with joints, loads and every output.

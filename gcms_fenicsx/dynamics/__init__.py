@@ -18,7 +18,7 @@ results.h5), ``budget`` (whether the results fit), ``simulate`` (composition).
 from gcms_fenicsx.dynamics.results import ResultsError, Trajectory, read_results, write_results
 from gcms_fenicsx.dynamics.scene import Scene, SceneError, parse_scene
 from gcms_fenicsx.dynamics.simulate import simulate, simulate_body, simulate_to_file
-from gcms_fenicsx.reduced_model import ReducedModelError, read_reduced
+from gcms_fenicsx.files.reduced_model import ReducedModelError, read_reduced
 
 __all__ = ["ReducedModelError", "ResultsError", "Scene", "SceneError", "Trajectory",
            "parse_scene", "read_reduced", "read_results", "simulate", "simulate_body",

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from gcms_fenicsx.dynamics.rotation import skew
-from gcms_fenicsx.reduced_model import ReducedModel
+from gcms_fenicsx.files.reduced_model import ReducedModel
 
 #: A group direction is in the span of its nodes when its second moment exceeds this
 #: fraction of the largest one (a flat face has one direction below it).

@@ -1,5 +1,6 @@
-"""The initial coordinates of a scene: q0 plus, on request, one elastic mode shape with a
-defined orientation (``[scene.initial]``; the rule is in ``scene``'s docstring).
+"""The initial state of a scene: q0 plus, on request, one elastic mode shape with a defined
+orientation (``[scene.initial]``; the rule is in ``scene``'s docstring), the velocity the
+joints allow, and q̈ and λ consistent with them (:func:`consistent_state`).
 
 An eigenvector of (Kr, Mr) is defined up to its sign, and within a repeated eigenvalue up to
 a rotation of the cluster's basis: the eigen-solver of two near-identical bodies returns
@@ -12,13 +13,14 @@ from __future__ import annotations
 import numpy as np
 
 from gcms_fenicsx.dynamics.body import Body, elastic_modes
+from gcms_fenicsx.dynamics.damping import RayleighDamping
+from gcms_fenicsx.dynamics.factorization import Solve
+from gcms_fenicsx.dynamics.joints import Constraints
+from gcms_fenicsx.dynamics.loads import ExternalForces
 from gcms_fenicsx.dynamics.scene import Initial, SceneError
+from gcms_fenicsx.dynamics.state import Elastic, State, StepInfo
+from gcms_fenicsx.reduction.spectrum import cluster_of
 
-#: Neighbouring elastic eigenvalues whose relative split (λ_{k+1} − λ_k)/λ_{k+1} is below this
-#: form one cluster (chained), as in ``modes.json``'s near-repeated clusters (eigen.CLUSTER_SPLIT):
-#: a mesh splits a square beam's bending pairs by 1e-6..1e-5, while the distinct modes of the
-#: bodies here lie at least 0.19 apart.
-CLUSTER_SPLIT = 1e-3
 #: A direction along which the cluster's largest reach is below this fraction of its largest
 #: nodal displacement is one the mode does not move along: refused.
 MIN_REACH = 1e-6
@@ -33,14 +35,9 @@ RIGID_MODES = 6
 
 
 def mode_cluster(lam: np.ndarray, index: int) -> range:
-    """The indices of the elastic eigenvalues chained to ``lam[index]`` by relative splits
-    below ``CLUSTER_SPLIT`` (``lam`` ascending, the first six rigid)."""
-    first, last = index, index
-    while first > RIGID_MODES and lam[first] - lam[first - 1] <= CLUSTER_SPLIT * lam[first]:
-        first -= 1
-    while last + 1 < len(lam) and lam[last + 1] - lam[last] <= CLUSTER_SPLIT * lam[last + 1]:
-        last += 1
-    return range(first, last + 1)
+    """The indices of the elastic eigenvalues chained to ``lam[index]``, as ``modes.json``
+    groups them (``reduction.spectrum``; ``lam`` ascending, the first six rigid)."""
+    return cluster_of(lam, index, first=RIGID_MODES)
 
 
 def nodal_displacements(body: Body, shapes: np.ndarray) -> np.ndarray:
@@ -108,3 +105,61 @@ def initial_coordinates(body: Body, initial: Initial) -> np.ndarray:
                                np.asarray(initial.direction, float))
     largest = float(np.max(np.linalg.norm(body.displacement(body.q0 + shape), axis=1)))
     return body.q0 + initial.amplitude_m / largest * shape
+
+
+def consistent_velocity(body: Body, constraints: Constraints, mass_solve: Solve, t: float,
+                        q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The initial q̇: v corrected by the rigid velocity nearest it (kinetic-energy norm)
+    that makes ġ = C q̇ + Ċ q = 0.
+
+    Correcting within the six rigid velocities (``Body.rigid_velocity`` at q) turns, say,
+    a spin the joints forbid into the rotation about the joint they allow, instead of
+    putting the difference into the stiffest elastic coordinates; only what no rigid
+    velocity can satisfy (a joint that constrains deformation rates) is corrected in
+    the Mr-norm over all coordinates.
+    """
+    c = constraints
+    if not c.count:
+        return v
+    U, dU = c.directions_at(t), c.directions_at(t, 1)
+    C = c.jacobian(U)
+    violation = C @ v + c.values(q, dU)
+    E = np.eye(3)
+    rigid = np.column_stack([body.rigid_velocity(q, E[k], np.zeros(3)) for k in range(3)]
+                            + [body.rigid_velocity(q, np.zeros(3), E[k]) for k in range(3)])
+    # min |W a|²_M  subject to  C W a = −violation  (minimum-norm if C W is rank-deficient)
+    CW = C @ rigid
+    weight = rigid.T @ np.asarray(body.mass @ rigid)
+    L_inv = np.linalg.inv(np.linalg.cholesky(weight))
+    a = -L_inv.T @ (np.linalg.pinv(CW @ L_inv.T, rcond=1e-10) @ violation)
+    v = v + rigid @ a
+    rest = C @ v + c.values(q, dU)
+    if np.linalg.norm(rest) > 1e-12 * max(np.linalg.norm(violation), 1e-300):
+        MinvCt = mass_solve(C.T)
+        v = v - MinvCt @ np.linalg.solve(C @ MinvCt, rest)
+    return v
+
+
+def consistent_state(body: Body, constraints: Constraints, forces: ExternalForces,
+                     elastic: Elastic, damping: RayleighDamping, mass_solve: Solve,
+                     q: np.ndarray, v: np.ndarray, t: float = 0.0) -> tuple[State, StepInfo]:
+    """The state at t with consistent q̈ and λ: [Mr Cᵀ; C 0] [q̈; λ] = [f; −(2Ċq̇ + C̈q)]."""
+    c = constraints
+    U = c.directions_at(t)
+    es = elastic(q)
+    f_ext = forces(t)
+    f = f_ext - es.force
+    dissipation = 0.0
+    if damping.active:
+        fd, dissipation = damping.force(body, v, es)
+        f = f - fd
+    lam = np.zeros(c.count)
+    if c.count:
+        C = c.jacobian(U)
+        MinvCt = mass_solve(C.T)
+        rhs = -(2.0 * c.values(v, c.directions_at(t, 1)) + c.values(q, c.directions_at(t, 2)))
+        lam = np.linalg.solve(C @ MinvCt, C @ mass_solve(f) - rhs)
+        f = f - C.T @ lam
+    acc = mass_solve(f)
+    state = State(t=t, q=q.copy(), v=v.copy(), acc=acc, a=acc.copy(), lam=lam)
+    return state, StepInfo(es, dissipation, U, 0, f_ext)

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gcms_fenicsx.dynamics.body import Body
-from gcms_fenicsx.dynamics.integrator import State, StepInfo
+from gcms_fenicsx.dynamics.state import State, StepInfo
 from gcms_fenicsx.dynamics.joints import Constraints
 from gcms_fenicsx.dynamics.loads import ExternalForces
 from gcms_fenicsx.dynamics.results import (ENERGY_NAMES, MULTIPLIERS, Series, Sink, block_rows,

@@ -14,7 +14,7 @@ File layout (schema 2): root attributes ``schema_version``, ``complete`` (bool),
 ``rows`` attribute); ``/coordinates/q``, ``/coordinates/v`` when recorded;
 ``/fields/time``, ``/fields/displacement`` (times × nodes × 3) and ``/fields/nodes_m``
 when requested. Every time series has one row per recorded step. Every dataset carries the
-SHA-256 of its contents and the root the SHA-256 of its attributes (``versioned_file.seal``;
+SHA-256 of its contents and the root the SHA-256 of its attributes (``files.versioned.seal``;
 the streamed datasets are hashed as their rows are written, nothing is read back). Schema 1
 (before checksums) is still read.
 """
@@ -30,8 +30,8 @@ from typing import NoReturn, Protocol
 import h5py
 import numpy as np
 
-from gcms_fenicsx.outputs import atomic_file
-from gcms_fenicsx.versioned_file import DigestBuilder, dataset_digest, open_versioned, seal
+from gcms_fenicsx.files.outputs import atomic_file
+from gcms_fenicsx.files.versioned import DigestBuilder, dataset_digest, open_versioned, seal
 
 RESULTS_SCHEMA_VERSION: int = 2
 #: The first results schema whose files carry content checksums.
@@ -195,7 +195,7 @@ class MemorySink:
 class ResultsWriter:
     """Rows streamed into an open results file: one resizable dataset per series (chunks of
     ``chunk_rows`` rows), field snapshots one at a time; every dataset's checksum is built
-    from what is written (:class:`~gcms_fenicsx.versioned_file.DigestBuilder`), and
+    from what is written (:class:`~gcms_fenicsx.files.versioned.DigestBuilder`), and
     :meth:`close` writes the attributes and seals the file."""
 
     def __init__(self, f: h5py.File, layout: tuple[Series, ...], chunk_rows: int,

@@ -59,7 +59,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Iterable, Mapping
 
-from gcms_fenicsx.validation import ConfigError, Table
+from gcms_fenicsx.config.table import ConfigError, Table
 
 JOINT_TYPES = ("spherical", "revolute", "fixed")
 

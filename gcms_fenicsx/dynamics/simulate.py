@@ -23,13 +23,17 @@ import h5py
 import numpy as np
 
 from gcms_fenicsx.dynamics.body import Body, body_from_reduced, elastic_modes
-from gcms_fenicsx.dynamics.budget import (Capacity, check_capacity, disk_capacity,
+from gcms_fenicsx.dynamics.capacity import (Capacity, check_capacity, disk_capacity,
                                           format_bytes, format_duration, memory_capacity)
 from gcms_fenicsx.dynamics.corotated import elastic_state
-from gcms_fenicsx.dynamics.initial import initial_coordinates
-from gcms_fenicsx.dynamics.integrator import (Elastic, Factorize, GeneralizedAlpha,
-                                              IntegrationError, State, StepInfo,
-                                              dense_factorization, mass_factorization)
+from gcms_fenicsx.dynamics.damping import RayleighDamping
+from gcms_fenicsx.dynamics.errors import IntegrationError
+from gcms_fenicsx.dynamics.factorization import (Factorize, dense_factorization,
+                                                 mass_factorization)
+from gcms_fenicsx.dynamics.initial import (consistent_state, consistent_velocity,
+                                           initial_coordinates)
+from gcms_fenicsx.dynamics.integrator import GeneralizedAlpha
+from gcms_fenicsx.dynamics.state import Elastic, State, StepInfo
 from gcms_fenicsx.dynamics.joints import Constraints, build_constraints
 from gcms_fenicsx.dynamics.loads import ExternalForces, external_forces
 from gcms_fenicsx.dynamics.recorder import Extremes, Recorder, RecordPlan, record_plan
@@ -37,9 +41,9 @@ from gcms_fenicsx.dynamics.results import (MemorySink, ResultsWriter, RunInfo, S
                                            Trajectory)
 from gcms_fenicsx.dynamics.rotation import InvertedBodyError
 from gcms_fenicsx.dynamics.scene import Scene, SceneError
-from gcms_fenicsx.outputs import atomic_file, finite_json
-from gcms_fenicsx.progress import Progress, quiet
-from gcms_fenicsx.reduced_model import ReducedModel
+from gcms_fenicsx.files.outputs import atomic_file, finite_json
+from gcms_fenicsx.runtime.progress import Progress, quiet
+from gcms_fenicsx.files.reduced_model import ReducedModel
 
 __all__ = ["elastic_modes", "initial_coordinates", "modal_history", "simulate",
            "simulate_body", "simulate_to_file"]
@@ -166,14 +170,15 @@ def _prepare(body: Body, scene: Scene, capacity: Capacity, factorize: Factorize,
              f"{len(plan.snapshot_steps)} field snapshots, {format_bytes(plan.total_bytes)} "
              f"(limit {format_bytes(capacity.bytes)} {capacity.what})")
     forces = external_forces(body, scene.gravity, scene.loads)
+    damping = RayleighDamping(scene.damping_alpha, scene.damping_beta)
     integrator = GeneralizedAlpha(body, constraints, forces, scene.time_step_s, scene.rho_inf,
-                                  (scene.damping_alpha, scene.damping_beta), scene.solver,
-                                  factorize, elastic, mass_solve)
+                                  damping, scene.solver, factorize, elastic)
     v_rigid = body.rigid_velocity(q, np.array(scene.initial.velocity),
                                   np.array(scene.initial.angular_velocity))
-    v = integrator.project_velocity(0.0, q, v_rigid)
+    v = consistent_velocity(body, constraints, mass_solve, 0.0, q, v_rigid)
     try:
-        state, info = integrator.start(q, v)
+        state, info = consistent_state(body, constraints, forces, integrator.elastic, damping,
+                                       mass_solve, q, v)
     except InvertedBodyError as exc:
         raise SceneError(f"[scene.initial] the initial state inverts the body: {exc}; lower "
                          "amplitude") from exc

@@ -1,0 +1,41 @@
+"""The ``[modes]`` table: which free-free modes the eigen-solve returns, and how accurately."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+from gcms_fenicsx.config.table import Table
+
+
+@dataclass(frozen=True)
+class ModesConfig:
+    """What the free-free eigen-solve must return.
+
+    Exactly one of ``count`` (number of elastic modes) and ``max_frequency_hz``
+    (every elastic mode below it) is set.
+    """
+
+    count: int | None = 10
+    max_frequency_hz: float | None = None
+    tolerance: float = 1e-10
+    max_iterations: int = 200
+
+
+def parse_modes(raw: Mapping[str, Any] | None) -> ModesConfig:
+    t = Table("modes", raw)
+    default = ModesConfig()
+    if t.has("count") and t.has("max_frequency_hz"):
+        raise t.error("max_frequency_hz", t.get("max_frequency_hz"),
+                      "give either count or max_frequency_hz, not both")
+    if t.has("max_frequency_hz"):
+        count, fmax = None, t.positive("max_frequency_hz")
+    else:
+        count, fmax = t.integer("count", default.count, low=1), None
+    modes = ModesConfig(
+        count=count,
+        max_frequency_hz=fmax,
+        tolerance=t.number("tolerance", default.tolerance, low=1e-15, high=1e-3),
+        max_iterations=t.integer("max_iterations", default.max_iterations, low=1),
+    )
+    t.finish()
+    return modes

@@ -1,0 +1,9 @@
+"""Finite elements: the body's mesh, K and M with dolfinx, and the verified free-free modes.
+
+The heavy part of the pipeline (dolfinx, PETSc, SLEPc, MPI, Gmsh): ``meshing`` runs the
+geometry in a child process and ``mesh`` reads it into dolfinx; ``assembly`` assembles K, M
+and Ms, ``algebra`` multiplies distributed matrices with dense blocks and ``mass`` applies
+M = Ms ⊗ I3; ``modes``, ``eigensolve``, ``factor`` and ``verification`` are the eigen-solve
+stage; ``node_groups`` the weights of surface groups; ``mode_shapes`` writes modes.json and
+the shapes for ParaView; ``memory`` estimates what a study will need.
+"""

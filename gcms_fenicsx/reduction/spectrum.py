@@ -1,0 +1,51 @@
+"""Clusters of eigenvalues: which neighbouring eigenvalues count as one (near-)repeated value.
+
+A solver returns an arbitrary basis of a repeated eigenvalue (a square beam's bending pair),
+and a mesh that is not symmetric splits it slightly, so a group of close eigenvalues is one
+subspace, not separate modes: ``modes.json`` reports such groups, a mode count that cuts
+one is warned, and an initial mode shape is chosen within its group. NumPy only (the
+standalone integrator uses it).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+#: Relative split below which two eigenvalues are reported as one repeated value.
+REPEATED_SPLIT = 1e-6
+#: Neighbouring eigenvalues whose relative split (λ_{k+1} − λ_k)/λ_{k+1} is below this are
+#: chained into one cluster: meshes split a square beam's bending pairs by 1e-6..1e-5, while
+#: the distinct modes of the study bodies lie at least 0.19 apart.
+CLUSTER_SPLIT = 1e-3
+
+
+def chained(lower: float, upper: float) -> bool:
+    """Whether ``upper`` ≥ ``lower`` is within CLUSTER_SPLIT (relative) of it."""
+    return upper - lower <= CLUSTER_SPLIT * abs(upper)
+
+
+def cluster_of(lam: np.ndarray, index: int, first: int = 0) -> range:
+    """The indices of the eigenvalues chained to ``lam[index]`` (``lam`` ascending), not
+    below ``first``."""
+    low, high = index, index
+    while low > first and chained(lam[low - 1], lam[low]):
+        low -= 1
+    while high + 1 < len(lam) and chained(lam[high], lam[high + 1]):
+        high += 1
+    return range(low, high + 1)
+
+
+def clusters(lam: np.ndarray) -> list[dict]:
+    """Every cluster of two or more of the ascending ``lam``: its indices, multiplicity,
+    relative split, whether it is repeated (split below REPEATED_SPLIT) and its frequency
+    (√mean / 2π, λ in rad²/s²)."""
+    out, index = [], 0
+    while index < len(lam):
+        group = cluster_of(lam, index, index)
+        if len(group) > 1:
+            g = list(group)
+            split = float((lam[g[-1]] - lam[g[0]]) / lam[g[-1]])
+            out.append({"modes": g, "multiplicity": len(g), "relative_split": split,
+                        "repeated": split < REPEATED_SPLIT,
+                        "frequency_hz": float(np.sqrt(lam[g].mean()) / (2 * np.pi))})
+        index = group.stop
+    return out
