@@ -187,7 +187,7 @@ def reduced_model_files(cfg: StudyConfig, folder: Path, progress: Progress, comm
     chain = result.chain
     reduction = pipeline.reduction_stage(chain.assembly.model, chain.modes, chain.body,
                                          cfg.selection, progress)
-    report = reduction.report | {"eigensolve_s": chain.modes.timings_s["eigensolve"]}
+    report = reduction.selection | {"eigensolve_s": chain.modes.timings_s["eigensolve"]}
     model = pipeline.reduced_model(reduction, comm)
     if comm.rank == 0:
         model = with_provenance(replace(model, selection=report), cfg, result.mesh_document,

@@ -14,7 +14,7 @@ on every rank, distributed ones hold each rank's rows.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
@@ -28,7 +28,7 @@ from gcms_fenicsx.config.selection import SelectionConfig
 from gcms_fenicsx.dynamics.scene import Scene
 from gcms_fenicsx.dynamics.simulate import simulate_to_file
 from gcms_fenicsx.files.outputs import on_rank0
-from gcms_fenicsx.files.reduced_model import NodeGroup, ReducedModel
+from gcms_fenicsx.files.reduced_model import ReducedModel
 from gcms_fenicsx.runtime.progress import Progress, quiet
 
 from geometry.info import MeshInfo
@@ -37,7 +37,6 @@ if TYPE_CHECKING:
     from gcms_fenicsx.fe.assembly import FEModel
     from gcms_fenicsx.fe.mesh import BodyMesh, MassProperties
     from gcms_fenicsx.fe.modes import Modes
-    from gcms_fenicsx.reduction.reduce import Reduction
 
 
 def _world(comm: Any) -> Any:
@@ -144,29 +143,24 @@ def free_free(geometry: Geometry, mesh: MeshParams, material: Material, settings
 
 
 def reduction_stage(model: FEModel, modes: Modes, body: BodyMesh, settings: SelectionConfig,
-                    progress: Progress = quiet) -> Reduction:
+                    progress: Progress = quiet) -> ReducedModel:
     """GCMS fields, their selection and the reduced matrices (``reduction.reduce``)."""
     from gcms_fenicsx.reduction.reduce import reduce_body
     progress("GCMS fields, selection and reduced matrices")
     return reduce_body(model, modes, body, settings)
 
 
-def reduced_model(reduction: Reduction, comm: Any = None) -> ReducedModel | None:
-    """The reduction as one :class:`ReducedModel` on rank 0 (None on the others): every rank's
-    rows of F and of the node coordinates gathered there, in global node order. Its
-    provenance (input hash, material, mesh statistics) is left empty for the caller."""
+def reduced_model(reduction: ReducedModel, comm: Any = None) -> ReducedModel | None:
+    """The reduction stage's product with every rank's rows of F and of the node coordinates
+    gathered on rank 0, in global node order (None on the other ranks). Its provenance (input
+    hash, material, mesh statistics) is left empty for the caller."""
     comm = _world(comm)
-    fields, nodes = comm.gather(reduction.fields, root=0), comm.gather(reduction.nodes_m, root=0)
+    fields = comm.gather(reduction.fields, root=0)
+    nodes = comm.gather(reduction.nodes_m, root=0)
     if comm.rank != 0:
         return None
     import numpy as np
-    return ReducedModel(
-        mass=reduction.mass, stiffness=reduction.stiffness, gravity=reduction.gravity,
-        fields=np.vstack(fields), nodes_m=np.vstack(nodes), field_names=reduction.field_names,
-        groups={name: NodeGroup(nodes=n, weights=w) for name, (n, w) in reduction.groups.items()},
-        frequencies_hz=reduction.frequencies_hz,
-        reduced_frequencies_hz=reduction.reduced_frequencies_hz, selection=reduction.report,
-        tolerances=reduction.tolerances)
+    return replace(reduction, fields=np.vstack(fields), nodes_m=np.vstack(nodes))
 
 
 def simulation_stage(model: ReducedModel, scene: Scene, results: Path,

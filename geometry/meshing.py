@@ -16,7 +16,6 @@ import os
 import secrets
 import sys
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
 from functools import singledispatch
 from pathlib import Path
 from typing import Any

@@ -1,4 +1,10 @@
-"""Shared test set-up: the FFCx JIT cache inside the repository, and an mpirun helper."""
+"""Shared test set-up: the FFCx JIT cache inside the repository, and an mpirun helper.
+
+``tests/dynamics`` (the standalone integrator on committed reduced models) is collected only
+in a process where the finite-element stack cannot be imported: the one
+``tests/test_standalone_dynamics.py`` starts, whose blocker (``tests/dynamics/no_fe_stack``)
+sets GCMS_NO_FE_STACK.
+"""
 from __future__ import annotations
 
 import json
@@ -15,6 +21,13 @@ REPO = Path(__file__).resolve().parents[1]
 os.environ.setdefault("XDG_CACHE_HOME", str(REPO / ".cache"))
 logging.disable(logging.INFO)  # the JIT's C build logs every compiler call at INFO
 sys.path.insert(0, str(Path(__file__).parent))  # test helper modules (beam_theory, ...)
+
+#: Set by tests/dynamics/no_fe_stack/sitecustomize.py: the modules it makes unimportable.
+NO_FE_STACK = "GCMS_NO_FE_STACK"
+collect_ignore = [] if os.environ.get(NO_FE_STACK) else ["dynamics"]
+#: The test that runs tests/dynamics in a child pytest without the finite-element stack.
+STANDALONE_DYNAMICS = ("tests/test_standalone_dynamics.py::"
+                       "test_dynamics_tests_pass_without_the_finite_element_stack")
 
 
 def mpirun(args: list[str], n: int = 2, timeout: float = 600) -> subprocess.CompletedProcess:
@@ -54,7 +67,21 @@ def gcms_reduce(text: str, config: Path, out: Path, ranks: int = 1) -> Path:
 
 @pytest.fixture(scope="session")
 def beam6_reduced(tmp_path_factory) -> Path:
-    """reduced.h5 of the six-mode test beam of ``test_dynamics``, reduced once per session."""
-    from test_dynamics import beam_study
+    """reduced.h5 of the six-mode test beam of ``beams``, reduced once per session."""
+    from beams import beam_study
     folder = tmp_path_factory.mktemp("beam6")
     return gcms_reduce(beam_study(6), folder / "study.toml", folder) / "reduced.h5"
+
+
+@pytest.fixture(scope="session", autouse=True)
+def standalone_dynamics(request, tmp_path_factory):
+    """The child pytest of ``tests/dynamics`` (``test_standalone_dynamics.ChildRun``), started
+    with the session when that test is selected, so that it runs beside the other tests on
+    the second core; None otherwise. Killed at the end of the session if still running."""
+    if not any(item.nodeid == STANDALONE_DYNAMICS for item in request.session.items):
+        yield None
+        return
+    from test_standalone_dynamics import start_dynamics_tests
+    run = start_dynamics_tests(tmp_path_factory.mktemp("dynamics"))
+    yield run
+    run.stop()

@@ -104,7 +104,7 @@ def test_verification_fails_a_missed_mode(square_modes):
 
 
 def test_matrix_free_mass_equals_the_assembled_mass(square_modes):
-    """The Ms ⊗ I3 operator the solver multiplies by reproduces the assembled M (DESIGN §2)."""
+    """The Ms ⊗ I3 operator the solver multiplies by reproduces the assembled M (docs/design.md §2)."""
     model, _ = square_modes
     X = np.random.default_rng(1).standard_normal((3 * model.nodes.shape[0], 4))
     expected = algebra.mat_dense(model.M, X)

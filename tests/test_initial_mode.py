@@ -3,7 +3,7 @@ for a repeated pair, nor on the sign it returns (``dynamics.initial``, rule in `
 
 Two square beams (30 × 30 mm, 0.5 m and 0.5001 m: near-identical, so their bending pairs are
 split only by their meshes, 1e-6..1e-5, and the solver returns a differently turned basis of
-each pair) and the rectangular test beam of ``test_dynamics``.
+each pair) and the rectangular test beam of ``beams``.
 """
 from __future__ import annotations
 

@@ -11,8 +11,8 @@ import pytest
 
 from conftest import gcms, strict_json
 from gcms_fenicsx.dynamics.scene import parse_scene
-from test_simulate_cli import (SCENE, assert_one_line_error, contents, output_folder, standalone,
-                               study)
+from simulate_runs import (SCENE, assert_one_line_error, contents, output_folder, standalone,
+                           study)
 
 
 def flip_bit(path, dataset: str, index: tuple[int, int]) -> None:

@@ -83,7 +83,7 @@ def test_column_order_is_the_references(square):
 
 def test_rayleigh_ritz_identity_without_pruning():
     """Every eigenmode lies in span(Φ), so the lowest 6 + Nm eigenvalues of (Kr, Mr) are the
-    full model's (DESIGN §3)."""
+    full model's (docs/design.md §4)."""
     mesh = create_box(MPI.COMM_WORLD, [[0, -0.02, -0.03], [0.6, 0.02, 0.03]], [12, 2, 2],
                       CellType.tetrahedron)
     model = pipeline.assembly_stage(mesh, STEEL, degree=2).model

@@ -11,7 +11,6 @@ their own tests and are not repeated.
 """
 from __future__ import annotations
 
-import importlib.util
 import shutil
 import sys
 
@@ -20,11 +19,10 @@ import pytest
 
 from conftest import REPO
 
+sys.path.insert(0, str(REPO / "workflows"))  # the suite's package, beside its entry point
+from stress import readers, runner, studies
+
 EPS = np.finfo(float).eps
-_spec = importlib.util.spec_from_file_location("stability", REPO / "workflows" / "stability.py")
-stability = importlib.util.module_from_spec(_spec)
-sys.modules["stability"] = stability  # dataclasses look their module up while being built
-_spec.loader.exec_module(stability)
 
 SIDE, LENGTH = 0.03, 0.5
 #: The 30 mm square steel beam at 7.5 mm: one field of the near-repeated first bending pair
@@ -34,12 +32,12 @@ SIDE, LENGTH = 0.03, 0.5
 #: differs between ε = 0 and 1e-6 by 2.4e-7 L instead of 5e-11 L (workflows/stability.py,
 #: class symmetry).
 SQUARE_SIZE, SQUARE_MODES = 0.0075, 7
-PENDULUM = stability.pendulum_scene(0.05, 1e-3)   # 50 steps, pinned at x = 0, gravity −z
+PENDULUM = studies.pendulum_scene(0.05, 1e-3)   # 50 steps, pinned at x = 0, gravity −z
 
 
 def square(epsilon: float) -> dict:
-    study = stability.beam_study("rectangle", {"width": SIDE * (1 + epsilon), "height": SIDE},
-                                 LENGTH, SQUARE_SIZE, SQUARE_MODES)
+    study = studies.beam_study("rectangle", {"width": SIDE * (1 + epsilon), "height": SIDE},
+                               LENGTH, SQUARE_SIZE, SQUARE_MODES)
     study["scene"] = dict(PENDULUM)
     return study
 
@@ -47,11 +45,11 @@ def square(epsilon: float) -> dict:
 def result(run) -> dict:
     """Everything the suite reads from a finished command's --out (asserting it succeeded)."""
     assert run.exit_status == 0 and run.outcome == "ok", (run.outcome, run.problem, run.stderr)
-    row = stability.both(stability.read_modes, stability.read_selection)(run.out)
+    row = readers.both(readers.read_modes, readers.read_selection)(run.out)
     row["out"] = run.out
     if (run.out / "results.h5").exists():
-        row.update(stability.read_summary(run.out))
-        row["tip"] = stability.tip_positions(run.out)
+        row.update(readers.read_summary(run.out))
+        row["tip"] = readers.tip_positions(run.out)
     return row
 
 
@@ -59,7 +57,7 @@ def result(run) -> dict:
 def widened(tmp_path_factory):
     """`gcms run` of the square beam (ε = 0) and of the beam widened by ε = 1e-6."""
     folder = tmp_path_factory.mktemp("widened")
-    return {eps: result(stability.gcms("run", square(eps), folder / f"eps{eps:g}"))
+    return {eps: result(runner.gcms("run", square(eps), folder / f"eps{eps:g}"))
             for eps in (0.0, 1e-6)}
 
 
@@ -113,7 +111,7 @@ def test_mm_t_s_gives_the_si_results(widened, tmp_path):
     (Newton stops at a relative residual of 1e-10; 3e-15 L measured) and the same Newton
     iterations (their mean to 0.02: one step in 50 may take one more near the tolerance)."""
     si = widened[0.0]
-    mm = result(stability.gcms("run", stability.mm_t_s(square(0.0)), tmp_path / "mm"))
+    mm = result(runner.gcms("run", studies.mm_t_s(square(0.0)), tmp_path / "mm"))
     assert (mm["nodes"], mm["cells"]) == (si["nodes"], si["cells"])
     assert mm["fields_kept"] == si["fields_kept"]
     np.testing.assert_allclose(mm["frequencies_hz"], si["frequencies_hz"], rtol=1e-9)
@@ -138,9 +136,9 @@ def test_frequencies_scale_as_sqrt_E_over_ten_decades(tmp_path):
     it, as in test_mm_t_s_gives_the_si_results)."""
     runs = {}
     for E in (1e5, 1e15):
-        study = stability.beam_study("rectangle", {"width": 0.03, "height": 0.02}, 0.5, 0.012, 6,
-                                     dict(stability.STEEL, E=E))
-        runs[E] = result(stability.gcms("reduce", study, tmp_path / f"E{E:g}"))
+        study = studies.beam_study("rectangle", {"width": 0.03, "height": 0.02}, 0.5, 0.012, 6,
+                                   dict(studies.STEEL, E=E))
+        runs[E] = result(runner.gcms("reduce", study, tmp_path / f"E{E:g}"))
     lo, hi = runs[1e5], runs[1e15]
     assert hi["mesh_sha256"] == lo["mesh_sha256"]
     np.testing.assert_allclose(np.array(hi["frequencies_hz"]) / 1e5, lo["frequencies_hz"],
@@ -163,13 +161,13 @@ def test_energy_balance_of_a_long_pendulum_run_does_not_grow(tmp_path):
     of the last quarter is at most twice that of the first. A drift linear in t makes that
     ratio 4 and a random walk 2; on this undamped, unloaded swing it is 0.98 (the error is
     set in the first swing and repeats with it; 20 s of it in workflows/stability.py)."""
-    study = stability.beam_study("square", {"side": 0.02}, 1.0, 0.02, 6,
-                                 {"E": 1.0e8, "nu": 0.35, "rho": 1150.0})
-    study["scene"] = stability.pendulum_scene(4.0, 1e-3)
-    run = stability.gcms("run", study, tmp_path / "pendulum")
+    study = studies.beam_study("square", {"side": 0.02}, 1.0, 0.02, 6,
+                               {"E": 1.0e8, "nu": 0.35, "rho": 1150.0})
+    study["scene"] = studies.pendulum_scene(4.0, 1e-3)
+    run = runner.gcms("run", study, tmp_path / "pendulum")
     summary = result(run)
     assert summary["complete"] and summary["steps"] == 4000
-    t, err = stability.balance_history(stability.read_trajectory(run.out))
+    t, err = readers.balance_history(readers.read_trajectory(run.out))
     a, q = np.abs(err), len(err) // 4
     assert 0 < a[-q:].max() <= 2 * a[:q].max(), (a[:q].max(), a[-q:].max())
     assert summary["energy_drift_rel"] < 1e-4  # measured 1.2e-5 (the release transient)
@@ -182,12 +180,12 @@ def test_two_ranks_give_the_serial_kr_and_mr_entries(tmp_path):
     and Kr agree entry by entry. The two runs' modes agree to about 1e-12 (their frequencies
     to 5e-13); the preconditioned basis undoes a near-dependency of cond(G) (1.5e11 here) and
     amplifies that by up to √cond(G): bound 1e-12 √cond(G) of the largest entry."""
-    study = stability.beam_study("rectangle", {"width": 0.03, "height": 0.02}, 0.5, 0.012, 6)
-    one = result(stability.gcms("reduce", study, tmp_path / "one"))
-    run = stability.gcms("reduce", study, tmp_path / "two", ranks=2)
+    study = studies.beam_study("rectangle", {"width": 0.03, "height": 0.02}, 0.5, 0.012, 6)
+    one = result(runner.gcms("reduce", study, tmp_path / "one"))
+    run = runner.gcms("reduce", study, tmp_path / "two", ranks=2)
     two = result(run)
     assert two["fields_kept"] == one["fields_kept"]
-    d = stability.reduced_difference(tmp_path / "one" / "reduced.h5", run.out / "reduced.h5")
+    d = readers.reduced_difference(tmp_path / "one" / "reduced.h5", run.out / "reduced.h5")
     assert d["node_match_over_size"] < 1e-12 and d["field_names_equal"]
     bound = 1e-12 * np.sqrt(one["cond_mr_before"])
     for key in ("fields_difference", "mr_difference", "kr_difference"):
@@ -204,9 +202,9 @@ def test_the_suite_tells_a_clean_failure_from_a_broken_one(widened, tmp_path):
     out = tmp_path / "out"
     out.mkdir()
     (out / "notes.txt").write_text("the user's own file\n")
-    study = stability.beam_study("square", {"side": 0.03}, 0.5, 0.015, 4,
-                                 dict(stability.STEEL, nu=0.5))
-    run = stability.gcms("modes", study, out)
+    study = studies.beam_study("square", {"side": 0.03}, 0.5, 0.015, 4,
+                               dict(studies.STEEL, nu=0.5))
+    run = runner.gcms("modes", study, out)
     assert (run.exit_status, run.outcome, run.problem) == (2, "bad input (2)", "")
     assert "[material] nu" in run.row()["last_stderr"] and run.wall_s > 0
     assert sorted(p.name for p in out.iterdir()) == ["notes.txt"]
@@ -215,11 +213,11 @@ def test_the_suite_tells_a_clean_failure_from_a_broken_one(widened, tmp_path):
     shutil.copytree(widened[0.0]["out"], stopped)  # the reduced model is reused: no FE work
     study = square(0.0)
     study["scene"]["solver"] = {"tolerance": 1e-15, "max_iterations": 1}
-    run = stability.gcms("simulate", study, stopped)
+    run = runner.gcms("simulate", study, stopped)
     assert (run.exit_status, run.outcome, run.problem) == (1, "incomplete", "")
-    assert not stability.read_trajectory(stopped).complete
+    assert not readers.read_trajectory(stopped).complete
 
-    now = stability.snapshot(out)
+    now = runner.snapshot(out)
     endings = {  # name: (exit status, stderr, --out before, --out after)
         "traceback": (2, "Traceback (most recent call last):\n  ...\nValueError: x", now, now),
         "exit status": (3, "gcms modes: error: x", now, now),
@@ -229,8 +227,8 @@ def test_the_suite_tells_a_clean_failure_from_a_broken_one(widened, tmp_path):
         "clean": (1, "[   0.1 s] eigen-solve\ngcms modes: failed: x", now, now),
     }
     for name, (status, stderr, before, after) in endings.items():
-        fake = stability.Run("gcms modes", out, "", status, stderr, 0.1)
-        outcome, problem = stability.judge(fake, "modes", before, after, mpi=False)
+        fake = runner.Run("gcms modes", out, "", status, stderr, 0.1)
+        outcome, problem = runner.judge(fake, "modes", before, after, mpi=False)
         if name == "clean":
             assert (outcome, problem) == ("failed (1)", "")
         else:

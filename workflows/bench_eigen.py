@@ -53,10 +53,9 @@ def worker(body: str, order: int, size: float, scipy_max: int) -> dict:
     import numpy as np
     from mpi4py import MPI
 
-    from gcms_fenicsx import eigen, fe
-    from gcms_fenicsx.config import parse_config
-    from gcms_fenicsx.pipeline import meshed_body
-    from gcms_fenicsx.reduce import reduce_body
+    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.config.study import parse_config
+    from gcms_fenicsx.fe import factor
 
     logging.disable(logging.INFO)
     comm = MPI.COMM_WORLD
@@ -64,14 +63,14 @@ def worker(body: str, order: int, size: float, scipy_max: int) -> dict:
                         "modes": {"count": COUNT}})
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(comm.bcast(tmp if comm.rank == 0 else None))  # rank 0's, for every rank
-        _, body_mesh = meshed_body(cfg, folder, comm=comm)
+        body_mesh = pipeline.body_mesh(pipeline.mesh_stage(cfg.geometry, cfg.mesh, folder,
+                                                           comm=comm), comm)
         comm.barrier()  # every rank has read the mesh before rank 0 removes the folder
+    assembled = pipeline.assembly_stage(body_mesh.mesh, cfg.material)
+    model, assembly = assembled.model, assembled.wall_time_s
+    modes = pipeline.modes_stage(model, cfg.modes)
     t0 = time.perf_counter()
-    model = fe.assemble(body_mesh.mesh, cfg.material)
-    assembly = time.perf_counter() - t0
-    modes = eigen.solve_free_free(model, cfg.modes)
-    t0 = time.perf_counter()
-    eigen.inertia_below(model, modes.shift)
+    factor.inertia_below(model, modes.shift)
     factorization = time.perf_counter() - t0
     out = {"body": body, "order": order, "size_m": size, "ranks": comm.size,
            "ndofs": model.ndofs, "assembly_s": assembly,
@@ -79,8 +78,8 @@ def worker(body: str, order: int, size: float, scipy_max: int) -> dict:
            "shift": modes.shift, "frequencies_hz": modes.elastic_frequencies_hz.tolist(),
            "solver_timings_s": modes.timings_s}
     if comm.size == 1 and order == 2:  # what ``gcms reduce`` adds: default selection, Mr, Kr
-        _, report = reduce_body(model, modes, body_mesh, cfg, {})
-        out["selection_and_reduction_s"] = report["timings_s"]["selection_and_reduction"]
+        reduction = pipeline.reduction_stage(model, modes, body_mesh, cfg.selection)
+        out["selection_and_reduction_s"] = reduction.selection["timings_s"]["selection_and_reduction"]
     if comm.size == 1 and model.ndofs <= scipy_max:
         out.update(_scipy(model, modes, np))
     return out
@@ -90,7 +89,7 @@ def _scipy(model, modes, np) -> dict:
     """ARPACK shift-invert (SuperLU) on the same K, M, shift and number of modes (rigid included)."""
     import scipy.sparse.linalg
 
-    from gcms_fenicsx.full_order import to_scipy
+    from gcms_fenicsx.references.full_order import to_scipy
 
     K, M = to_scipy(model.K), to_scipy(model.M)
     t0 = time.perf_counter()

@@ -45,34 +45,38 @@ def log(message: str) -> None:
 def bodies():
     """(material, Nm, selection, body or failure message) for every case, one mesh and one
     solve per material."""
-    from gcms_fenicsx import eigen, fe, pendulum
-    from gcms_fenicsx.config import parse_config
+    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.config.material import parse_material
+    from gcms_fenicsx.config.selection import SelectionConfig
+    from gcms_fenicsx.config.study import parse_config
     from gcms_fenicsx.dynamics.body import body_from_reduced
-    from gcms_fenicsx.pipeline import meshed_body
-    from gcms_fenicsx.reduce import ReductionError, reduce_body
+    from gcms_fenicsx.reduction.reduce import ReductionError
+    from gcms_fenicsx.references import pendulum
 
     cfg = parse_config(dict(pendulum.STUDY, modes={"count": max(MODE_COUNTS)}))
     with tempfile.TemporaryDirectory() as tmp:
-        _, body_mesh = meshed_body(cfg, Path(tmp))
-    none = {"cosine_tolerance": 0.0, "svd_tolerance": 0.0, "orthonormalize": False}
+        body_mesh = pipeline.body_mesh(pipeline.mesh_stage(cfg.geometry, cfg.mesh, Path(tmp)))
+    none = SelectionConfig(cosine_tolerance=0.0, svd_tolerance=0.0, orthonormalize=False)
     for material, E in MATERIALS_E_PA.items():
-        table_m = dict(pendulum.STUDY, material=dict(pendulum.STUDY["material"], E=E))
-        model = fe.assemble(body_mesh.mesh, parse_config(table_m).material)
-        modes = eigen.solve_free_free(model, cfg.modes)
+        steel_or_soft = parse_material(dict(pendulum.STUDY["material"], E=E))
+        model = pipeline.assembly_stage(body_mesh.mesh, steel_or_soft).model
+        modes = pipeline.modes_stage(model, cfg.modes)
         for nm in MODE_COUNTS:
-            for label, table in (("default", {}), ("none", none))[:2 if material == "soft" else 1]:
-                cfg_c = parse_config(dict(table_m, modes={"count": nm}, selection=table))
+            variants = (("default", cfg.selection), ("none", none))
+            for label, settings in variants[:2 if material == "soft" else 1]:
                 try:
-                    reduced, report = reduce_body(model, modes.lowest(nm), body_mesh, cfg_c, {})
+                    reduction = pipeline.reduction_stage(model, modes.lowest(nm), body_mesh,
+                                                         settings)
                 except ReductionError as exc:
                     yield material, nm, label, None, str(exc)
                     continue
-                yield material, nm, label, body_from_reduced(reduced), report
+                body = body_from_reduced(pipeline.reduced_model(reduction))
+                yield material, nm, label, body, reduction.selection
 
 
 def timed(body, scene, jacobian: str, repeat: int) -> dict:
     """Best of ``repeat`` runs: steps/s, µs per step, Newton iterations; or the failure."""
-    from gcms_fenicsx.dynamics.integrator import IntegrationError
+    from gcms_fenicsx.dynamics.errors import IntegrationError
     from gcms_fenicsx.dynamics.simulate import simulate_body
 
     sc = replace(scene, solver=replace(scene.solver, jacobian=jacobian),
@@ -99,8 +103,8 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
     logging.disable(logging.INFO)
-    from gcms_fenicsx import pendulum
     from gcms_fenicsx.dynamics.scene import parse_scene
+    from gcms_fenicsx.references import pendulum
 
     scene = parse_scene(pendulum.STUDY["scene"])
     rows = []

@@ -41,8 +41,8 @@ sys.path.insert(0, str(REPO))
 from gcms_fenicsx.dynamics.body import Body, body_from_reduced  # noqa: E402
 from gcms_fenicsx.dynamics.scene import parse_scene  # noqa: E402
 from gcms_fenicsx.dynamics.simulate import modal_history, simulate_body  # noqa: E402
-from gcms_fenicsx.dynamics.spectra import peak_frequency_hz  # noqa: E402
-from gcms_fenicsx.reduced_model import ReducedModel, read_reduced  # noqa: E402
+from gcms_fenicsx.references.spectra import peak_frequency_hz  # noqa: E402
+from gcms_fenicsx.files.reduced_model import ReducedModel, read_reduced  # noqa: E402
 
 STUDY = """
 [geometry]

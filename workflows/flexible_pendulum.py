@@ -57,36 +57,36 @@ def log(message: str) -> None:
 
 def setup(quick: bool):
     """Mesh, assembly, the free-free modes (largest Nm), node groups: everything shared."""
-    from gcms_fenicsx import eigen, fe, pendulum
-    from gcms_fenicsx.config import parse_config
-    from gcms_fenicsx.node_groups import group_weights
-    from gcms_fenicsx.pipeline import meshed_body
+    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.config.study import parse_config
+    from gcms_fenicsx.fe.node_groups import group_weights
+    from gcms_fenicsx.references import pendulum
 
     study = dict(pendulum.STUDY, modes={"count": max(MODE_COUNTS)})
     cfg = parse_config(study, "flexible pendulum")
     with tempfile.TemporaryDirectory() as tmp:
-        _, body_mesh = meshed_body(cfg, Path(tmp))
+        body_mesh = pipeline.body_mesh(pipeline.mesh_stage(cfg.geometry, cfg.mesh, Path(tmp)))
     t0 = time.perf_counter()
-    model = fe.assemble(body_mesh.mesh, cfg.material)
-    modes = eigen.solve_free_free(model, cfg.modes)
+    model = pipeline.assembly_stage(body_mesh.mesh, cfg.material).model
+    modes = pipeline.modes_stage(model, cfg.modes)
     offline_s = time.perf_counter() - t0
     groups = group_weights(body_mesh, model.Vs)
     scene = cfg.scene if not quick else replace(cfg.scene, end_time_s=0.3)
     return cfg, body_mesh, model, modes, groups, scene, offline_s
 
 
-def gcms_body(cfg, model, modes, body_mesh, nm: int, tolerance: float | None):
+def gcms_body(model, modes, body_mesh, nm: int, tolerance: float | None):
     """(body, reduction report, reduction wall time) for nm modes at one tolerance."""
+    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.config.selection import SelectionConfig
     from gcms_fenicsx.dynamics.body import body_from_reduced
-    from gcms_fenicsx.reduce import reduce_body
-    from gcms_fenicsx.selection import SelectionConfig
 
     selection = SelectionConfig() if tolerance is None else \
         SelectionConfig(cosine_tolerance=tolerance ** 2, svd_tolerance=tolerance)
-    cfg_t = replace(cfg, modes=replace(cfg.modes, count=nm), selection=selection)
     t0 = time.perf_counter()
-    reduced, report = reduce_body(model, modes.lowest(nm), body_mesh, cfg_t, {})
-    return body_from_reduced(reduced), report, time.perf_counter() - t0
+    reduction = pipeline.reduction_stage(model, modes.lowest(nm), body_mesh, selection)
+    body = body_from_reduced(pipeline.reduced_model(reduction))
+    return body, reduction.selection, time.perf_counter() - t0
 
 
 def run(body, scene, **kwargs) -> dict:
@@ -104,7 +104,7 @@ def run(body, scene, **kwargs) -> dict:
 def references(full, model, scene) -> dict:
     """Runs of the full-order body: (a) co-rotated linear, and (b) Saint Venant–Kirchhoff
     unless ``scene`` is damped (co-rotated damping is not combined with SVK)."""
-    from gcms_fenicsx.full_order import sparse_factorization, svk_elastic
+    from gcms_fenicsx.references.full_order import sparse_factorization, svk_elastic
 
     refs = {"a": run(full, scene, factorize=sparse_factorization)}
     log(f"  reference (a), co-rotated linear on {full.dofs} DOFs: {refs['a']['wall_s']:.0f} s")
@@ -117,15 +117,15 @@ def references(full, model, scene) -> dict:
     return refs
 
 
-def reductions(cfg, model, modes, body_mesh, quick: bool) -> list[tuple]:
+def reductions(model, modes, body_mesh, quick: bool) -> list[tuple]:
     """(Nm, tolerance, body, report, reduction wall time) for every GCMS case of the study."""
     counts = (5, 10, 20) if quick else MODE_COUNTS
-    return [(nm, tol, *gcms_body(cfg, model, modes, body_mesh, nm, tol))
+    return [(nm, tol, *gcms_body(model, modes, body_mesh, nm, tol))
             for nm in counts for tol in (None, *((1e-4,) if quick else TOLERANCES))]
 
 
 def study(damping: float, model, full, rigid, cases: list[tuple], scene) -> dict:
-    from gcms_fenicsx import pendulum
+    from gcms_fenicsx.references import pendulum
 
     scene = replace(scene, damping_beta=damping)
     until = min(rigid.half_period_s, scene.end_time_s)
@@ -170,16 +170,17 @@ def study(damping: float, model, full, rigid, cases: list[tuple], scene) -> dict
 
 def stiffness_sweep(cfg, body_mesh, groups, scene, quick: bool) -> list[dict]:
     """(a), (b) and GCMS (Nm = 10, 20) at stiffer materials: where GCMS meets SVK."""
-    from gcms_fenicsx import eigen, fe, pendulum
-    from gcms_fenicsx.full_order import full_order_body
-    from gcms_fenicsx.material import Material
+    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.references import pendulum
+    from gcms_fenicsx.references.full_order import full_order_body
+    from gcms_fenicsx.config.material import Material
 
     rows = []
     for E in (SWEEP_E_PA[:1] if quick else SWEEP_E_PA):
         log(f"[sweep] E = {E:.0e} Pa")
         material = Material(E=E, nu=cfg.material.nu, rho=cfg.material.rho)
-        model = fe.assemble(body_mesh.mesh, material)
-        modes = eigen.solve_free_free(model, replace(cfg.modes, count=20))
+        model = pipeline.assembly_stage(body_mesh.mesh, material).model
+        modes = pipeline.modes_stage(model, replace(cfg.modes, count=20))
         full = full_order_body(model, groups)
         rigid = pendulum.rigid_pendulum(full, np.array(scene.gravity), scene.end_time_s)
         until = min(rigid.half_period_s, scene.end_time_s)
@@ -195,7 +196,7 @@ def stiffness_sweep(cfg, body_mesh, groups, scene, quick: bool) -> list[dict]:
                "a_vs_b": pendulum.deviation_error(refs["a"]["time"], dev["a"], dev["b"], until),
                "reference_wall_s": {key: r["wall_s"] for key, r in refs.items()}}
         for nm in (10, 20):
-            body, _, _ = gcms_body(cfg, model, modes, body_mesh, nm, None)
+            body, _, _ = gcms_body(model, modes, body_mesh, nm, None)
             r = run(body, scene)
             d = pendulum.tip_deviation(rigid, r["time"], r["tip"])
             row[f"gcms{nm}_vs_a"] = pendulum.deviation_error(r["time"], d, dev["a"], until)
@@ -292,8 +293,8 @@ def main() -> None:
     parser.add_argument("--sweep-only", action="store_true", help="only the stiffness sweep")
     args = parser.parse_args()
     logging.disable(logging.INFO)
-    from gcms_fenicsx import pendulum
-    from gcms_fenicsx.full_order import full_order_body
+    from gcms_fenicsx.references import pendulum
+    from gcms_fenicsx.references.full_order import full_order_body
 
     cfg, body_mesh, model, modes, groups, scene, offline_s = setup(args.quick)
     if args.sweep_only:
@@ -304,7 +305,7 @@ def main() -> None:
     log(f"setup: {model.ndofs} DOFs, {len(modes.elastic_eigenvalues)} modes in {offline_s:.1f} s")
     full = full_order_body(model, groups)
     rigid = pendulum.rigid_pendulum(full, np.array(scene.gravity), scene.end_time_s)
-    cases = reductions(cfg, model, modes, body_mesh, args.quick)
+    cases = reductions(model, modes, body_mesh, args.quick)
     results = [study(beta, model, full, rigid, cases, scene) for beta in (0.0, DAMPING_BETA_S)]
     for r in results:
         r["eigensolve_and_assembly_s"] = offline_s

@@ -21,7 +21,8 @@ import numpy as np  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
-from geometry import SECTIONS, parse_geometry, parse_mesh  # noqa: E402
+from geometry import SECTIONS, parse_mesh  # noqa: E402
+from gcms_fenicsx.config.geometry import parse_geometry
 from geometry.meshing import add_body, gmsh_session, set_mesh_sizes  # noqa: E402
 
 #: Example dimensions (m) of each section, drawn as a beam 0.1 m long.

@@ -60,26 +60,24 @@ def studies(quick: bool) -> dict[str, dict]:
 
 
 def run_case(name: str, table: dict, folder: Path) -> dict:
-    from gcms_fenicsx import basis, eigen, fe, selection
-    from gcms_fenicsx.config import parse_config
-    from gcms_fenicsx.pipeline import meshed_body
-    from gcms_fenicsx.reduce import ReductionError, reduce_body
+    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.config.selection import SelectionConfig
+    from gcms_fenicsx.config.study import parse_config
+    from gcms_fenicsx.reduction import basis, selection
+    from gcms_fenicsx.reduction.reduce import ReductionError
 
     cfg = parse_config(table, name)
-    stage, body = meshed_body(cfg, folder)
-    model = fe.assemble(body.mesh, cfg.material)
-    all_modes = eigen.solve_free_free(model, cfg.modes)
-    stats = {"nodes": stage.info.nodes, "cells": stage.info.cells, "ndofs": model.ndofs}
+    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, folder)
+    model, body, all_modes = chain.assembly.model, chain.body, chain.modes
     out = {"case": name, "ndofs": model.ndofs, "eigensolve_s": all_modes.timings_s["eigensolve"],
            "frequencies_hz": all_modes.elastic_frequencies_hz.tolist(), "by_modes": {},
            "sweep": []}
     for nm in MODE_COUNTS:
         modes = all_modes.lowest(nm)
         row = {}
-        for variant, extra in (("default", {}), ("plain", {"orthonormalize": False})):
-            cfg_v = parse_config({**table, "selection": extra}, name)
-            _, report = reduce_body(model, modes, body, cfg_v, stats)
-            row[variant] = report
+        for variant, settings in (("default", SelectionConfig()),
+                                  ("plain", SelectionConfig(orthonormalize=False))):
+            row[variant] = pipeline.reduction_stage(model, modes, body, settings).selection
         out["by_modes"][nm] = row
     if name in ("square", "crankshaft"):
         modes = all_modes.lowest(10)
@@ -87,10 +85,9 @@ def run_case(name: str, table: dict, folder: Path) -> dict:
         out["cosine"] = selection.cosine_matrix(fields.gram_mass).tolist()
         out["field_names"] = list(fields.names)
         for tol in SWEEP:
-            cfg_t = parse_config({**table, "selection": {"cosine_tolerance": tol,
-                                                         "svd_tolerance": tol}}, name)
+            settings = SelectionConfig(cosine_tolerance=tol, svd_tolerance=tol)
             try:
-                _, report = reduce_body(model, modes, body, cfg_t, stats)
+                report = pipeline.reduction_stage(model, modes, body, settings).selection
             except ReductionError as exc:  # a too-tight tolerance leaves Mr singular: data
                 out["sweep"].append({"tolerance": tol, "error": str(exc)})
                 continue

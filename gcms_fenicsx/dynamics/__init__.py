@@ -1,4 +1,4 @@
-"""The standalone integrator of a reduced GCMS body: NumPy and h5py only (DESIGN §5).
+"""The standalone integrator of a reduced GCMS body: NumPy and h5py only (docs/design.md §6).
 
 Nothing in this package imports dolfinx, PETSc, MPI, Gmsh or SciPy, so a reduced model
 (``reduced.h5``) can be simulated on a machine that has none of them::

@@ -1,4 +1,4 @@
-"""A flexible body in GCMS coordinates, as the integrator sees it (DESIGN §2, §5).
+"""A flexible body in GCMS coordinates, as the integrator sees it (docs/design.md §2, §6).
 
 Node i is at x_i = Σ_f F[i, f] Q[f, :], with q = Q read row by row (nf fields, n = 3 nf).
 The body carries only what the equations of motion need: Mr, Kr, the field Gram matrix
@@ -37,7 +37,7 @@ class GroupRows:
 
     x_G(q) = Qᵀ h (the weighted mean position) and L(q) = Qᵀ H_G, the weighted
     least-squares linear map of the group's own directions: L d = R d for every d in
-    ``span`` under a rigid motion R (DESIGN §4: positions are linear in q).
+    ``span`` under a rigid motion R (docs/design.md §5: positions are linear in q).
     """
 
     position: np.ndarray   # h (nf,)

@@ -1,6 +1,6 @@
 """Co-rotated linear elasticity in GCMS coordinates: energy, forces and their exact tangent.
 
-DESIGN §5: with the co-rotated frame R = polar(A(q)), A(q) = Qᵀ H, the local coordinates are
+docs/design.md §6: with the co-rotated frame R = polar(A(q)), A(q) = Qᵀ H, the local coordinates are
 Q_loc = Q R (each field's 3-vector rotated back) and the elastic energy is
 
     V(q) = ½ eᵀ Kr e,    e = Π (vec(Q R) − q0),

@@ -1,4 +1,4 @@
-"""Joints to the ground as constraints that are linear in q (DESIGN §4, §5).
+"""Joints to the ground as constraints that are linear in q (docs/design.md §5, §6).
 
 Every constraint row has the form  g_i(q, t) = u_i(t) · (Qᵀ v_i) − d_i,  i.e. the row
 kron(v_i, u_i) of C = ∂g/∂q, with v_i one of a group's linear functions of q

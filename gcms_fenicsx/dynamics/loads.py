@@ -2,7 +2,7 @@
 
 A force F on a group acts on its weighted mean position x_G = Qᵀ h, so its generalized
 force is (∂x_G/∂q)ᵀ F = kron(h, F) — the same as spreading F over the group's nodes with
-their weights. Gravity is Φᵀ M (1 ⊗ g) = ``body.gravity @ g`` (DESIGN §4), with potential
+their weights. Gravity is Φᵀ M (1 ⊗ g) = ``body.gravity @ g`` (docs/design.md §5), with potential
 −q · (body.gravity @ g). Neither depends on q or q̇, so the Newton tangent has no load term:
 
     f_ext(t) = f_g + Σ_j s_j(t) b_j,    b_j = kron(h_j, F_j).

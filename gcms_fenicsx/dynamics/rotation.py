@@ -1,5 +1,5 @@
 """Rotations of 3-vectors: the polar decomposition of the body's affine map, its derivative,
-and the skew-matrix helpers the co-rotated forces are written with (DESIGN §5).
+and the skew-matrix helpers the co-rotated forces are written with (docs/design.md §6).
 
 All functions take single 3×3 matrices or stacks ``(..., 3, 3)`` and 3-vectors or stacks
 ``(..., 3)``, so a tangent can be built for many directions at once.

@@ -175,7 +175,7 @@ def purified(model: FEModel, factor: PETSc.Mat, ritz: np.ndarray) -> np.ndarray:
     ``factor``: a factorisation of K − σM. The shift-invert operator damps the part of a
     Ritz vector's error along eigenvalue λ by (λ₀ − σ)/(λ − σ): SLEPc's eigenvector
     purification, done here for all vectors in one block solve (MUMPS solves 32
-    right-hand sides at about 1/7 of the cost per vector of a single solve).
+    right-hand sides for much less per vector than single solves; docs/design.md §8).
     """
     rhs = dense_operand(model.K, mass_dense(model, ritz))
     out = rhs.duplicate()
@@ -211,7 +211,7 @@ def krylov_modes(model: FEModel, wanted: int, shift: Shift, rigid: np.ndarray,
     """The ``wanted`` lowest elastic pairs by shift-invert Krylov–Schur in the M-orthogonal
     complement of ``rigid``, purified and freed of rigid content (module docstring)."""
     # one eigenpair past the last wanted one places the Sylvester check in the gap after it;
-    # more only lengthen the Krylov basis (a restart more for four: 25 % of the solve)
+    # more only lengthen the Krylov basis
     eps = _run_eps(model, wanted + 1, shift.sigma, cfg, rigid, progress)
     nconv = eps.getConverged()
     its = eps.getIterationNumber()

@@ -15,7 +15,7 @@ from gcms_fenicsx.fe.mesh import MassProperties
 def mass_dense(model: FEModel, X: np.ndarray) -> np.ndarray:
     """M @ X as (Ms ⊗ I3) X: one product of the scalar Ms with X's three direction slices.
 
-    M = Ms ⊗ I3 on the node-major blocked space (DESIGN §2, consequence 1), so row (i, l)
+    M = Ms ⊗ I3 on the node-major blocked space (docs/design.md §2, consequence 1), so row (i, l)
     of M X is Σ_j Ms_ij X[(j, l), :]. Ms has a ninth of M's nonzeros: the same product
     reads a third of the matrix entries per column (checked by :func:`kron_mass_check`).
     """
@@ -27,8 +27,8 @@ class KronMass:
     """PETSc Python-shell context for M = Ms ⊗ I3 acting on vectors (see :func:`mass_dense`).
 
     SLEPc multiplies by M a few times per Krylov step (shift-invert right-hand side and
-    M-inner products). Through Ms a product reads a third of the entries and takes an
-    eighth of the time (1.05 against 8.9 ms on an 82k-DOF P2 crankshaft).
+    M-inner products). Through Ms a product reads a third of the entries (timings: README,
+    Performance).
     """
 
     def __init__(self, model: FEModel):
@@ -50,7 +50,7 @@ def kron_mass_check(model: FEModel, round_off: float, seed: int = 0) -> tuple[fl
     """(defect, limit): ‖M w − (Ms ⊗ I3) w‖ / ‖M w‖ for a random nodal field W (N×3),
     w = vec(W) node-major, and the most round-off can make of it.
 
-    Zero in exact arithmetic when M = Ms ⊗ I3 (DESIGN §2, consequence 1). Each product is
+    Zero in exact arithmetic when M = Ms ⊗ I3 (docs/design.md §2, consequence 1). Each product is
     within ``round_off`` |M||w| of the exact one entrywise (``round_off`` = γ_k for k
     stored entries per row), so the limit is 2 ``round_off`` ‖|M||w|‖ / ‖M w‖. Each rank
     draws its own owned rows.
@@ -70,7 +70,7 @@ def mass_properties(Ms: PETSc.Mat, nodes: np.ndarray, rho: float) -> MassPropert
 
     Coordinates are exactly represented in the isoparametric P_k space, so with
     X = [1, x, y, z] at the nodes, (Xᵀ Ms X)/ρ holds ∫1, ∫x_i, ∫x_i x_j exactly (to
-    quadrature): the rigid block of the Gram matrix G = Fᵀ Ms F (DESIGN §2).
+    quadrature): the rigid block of the Gram matrix G = Fᵀ Ms F (docs/design.md §2).
     """
     fields = np.hstack([np.ones((nodes.shape[0], 1)), nodes])
     moments = gram(Ms.getComm().tompi4py(), fields, mat_dense(Ms, fields)) / rho

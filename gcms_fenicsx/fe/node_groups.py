@@ -12,7 +12,6 @@ import ufl
 from dolfinx import fem
 from dolfinx.fem.petsc import assemble_vector
 from dolfinx.mesh import meshtags
-from mpi4py import MPI
 from petsc4py import PETSc
 
 from gcms_fenicsx.fe.mesh import BodyMesh

@@ -104,7 +104,7 @@ class Verification:
         if self.mass_kron_defect > self.mass_kron_limit:
             out.append(f"M differs from Ms ⊗ I3 by {self.mass_kron_defect:.3e} > "
                        f"{self.mass_kron_limit:.1e}: the mass is not isotropic on a blocked "
-                       "space (DESIGN §2)")
+                       "space (docs/design.md §2)")
         return out
 
     def to_json(self) -> dict:

@@ -69,6 +69,12 @@ def _pyplot():
     return plt
 
 
+def _save(plt, fig, path: Path) -> None:
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def plot_trajectory(traj: PlotData, path: Path) -> None:
     """The sensor group's displacement components against time, and its path in the plane
     of its two largest motions."""
@@ -94,9 +100,7 @@ def plot_trajectory(traj: PlotData, path: Path) -> None:
     right.set_title(f"path of {sensor}")
     status = "" if traj.complete else "  (incomplete)"
     fig.suptitle(f"sensor {sensor}{status}{traj.note}")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _save(plt, fig, path)
 
 
 def plot_energy(traj: PlotData, path: Path) -> None:
@@ -119,9 +123,7 @@ def plot_energy(traj: PlotData, path: Path) -> None:
     bottom.set_xlabel("time [s]")
     bottom.grid(alpha=0.3)
     top.set_title(f"energies{traj.note}")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _save(plt, fig, path)
 
 
 def plot_joints(traj: PlotData, path: Path) -> None:
@@ -144,9 +146,7 @@ def plot_joints(traj: PlotData, path: Path) -> None:
     bottom.set_xlabel("time [s]")
     bottom.legend(loc="best", fontsize=7)
     bottom.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _save(plt, fig, path)
 
 
 def plot_results(results: Path, folder: Path) -> list[str]:

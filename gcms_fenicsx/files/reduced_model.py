@@ -1,7 +1,7 @@
 """The reduced GCMS body and its HDF5 file: what a simulation needs, and nothing of the FE model.
 
-``gcms reduce`` writes one ``reduced.h5`` per body (DESIGN §4); the standalone integrator
-(DESIGN §5) reads it. This module therefore imports NumPy, h5py and the standard library
+``gcms reduce`` writes one ``reduced.h5`` per body (docs/design.md §5); the standalone integrator
+(docs/design.md §6) reads it. This module therefore imports NumPy, h5py and the standard library
 only, so the file can be read without dolfinx, PETSc, MPI or SciPy.
 
 The writer validates a model before it writes and writes atomically (a temporary file beside
@@ -9,7 +9,7 @@ the target, then a rename), so a failed or interrupted write leaves the previous
 was. The reader checks the schema version, every dataset and attribute, every shape and
 every value, and raises :class:`ReducedModelError` saying which file and what is wrong.
 
-Coordinates: q is Q read row by row, Q holding one 3-vector per field (DESIGN §2), so node i
+Coordinates: q is Q read row by row, Q holding one 3-vector per field (docs/design.md §2), so node i
 is at x_i = Σ_f F[i, f] Q[f, :] and a node group's mean position is Σ_i w_i x_i; both are
 linear in q.
 

@@ -1,4 +1,4 @@
-"""GCMS shape vectors as scalar nodal fields: Φ = F ⊗ I3 (reference eqs. (1)–(3), DESIGN §2).
+"""GCMS shape vectors as scalar nodal fields: Φ = F ⊗ I3 (reference eqs. (1)–(3), docs/design.md §2).
 
 What this module is for: the field matrix F = [1, X, Y, Z, φ_1^1, φ_1^2, φ_1^3, φ_2^1, …]
 (X measured from the centre of mass), its small Gram matrices G = Fᵀ Ms F and FᵀF, the
@@ -83,7 +83,7 @@ def phi_dense(fields: np.ndarray) -> np.ndarray:
 
 
 def reduced_mass(gram_mass: np.ndarray) -> np.ndarray:
-    """Mr = Φᵀ M Φ = (Fᵀ Ms F) ⊗ I3, since M = Ms ⊗ I3 (DESIGN §2)."""
+    """Mr = Φᵀ M Φ = (Fᵀ Ms F) ⊗ I3, since M = Ms ⊗ I3 (docs/design.md §2)."""
     return np.kron(gram_mass, np.eye(3))
 
 

@@ -1,9 +1,9 @@
 """From free-free modes to the reduced body: GCMS fields, selection, Mr, Kr, gravity, node groups.
 
 The stage takes what it uses — the assembled model, the modes, the body's surface groups and
-the ``[selection]`` settings — and returns a :class:`Reduction`: the small matrices (the same
-on every rank), this rank's rows of the kept fields and the selection report
-(``selection.json``). Gathering the rows on rank 0 and the provenance of a file (input hash,
+the ``[selection]`` settings — and returns the reduced model as this rank holds it: the small
+matrices (the same on every rank), this rank's rows of the kept fields and the selection
+report (``selection.json``). Gathering the rows on rank 0 and the provenance of a file (input hash,
 material, mesh statistics) are the file layer's (``pipeline.reduced_model``, ``commands``).
 Its oracle is Rayleigh–Ritz (docs/design.md §4.5): every kept eigenmode lies in span(Φ),
 so the lowest 6 + Nm eigenvalues of (Kr, Mr) reproduce the full model's, and any deviation
@@ -12,8 +12,6 @@ is the pruning error, reported as ``max_rel_frequency_error``.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
-
 import numpy as np
 import scipy.linalg
 
@@ -22,6 +20,7 @@ from gcms_fenicsx.fe.assembly import FEModel
 from gcms_fenicsx.fe.mesh import BodyMesh
 from gcms_fenicsx.fe.modes import Modes
 from gcms_fenicsx.fe.node_groups import group_weights
+from gcms_fenicsx.files.reduced_model import NodeGroup, ReducedModel
 from gcms_fenicsx.reduction import basis, selection
 from gcms_fenicsx.runtime.errors import ComputationFailed
 
@@ -30,32 +29,15 @@ class ReductionError(ComputationFailed):
     """The reduced model cannot be used (its mass matrix is not positive definite)."""
 
 
-@dataclass(frozen=True)
-class Reduction:
-    """The reduced body as the stage leaves it on each rank.
-
-    ``mass`` Mr, ``stiffness`` Kr and ``gravity`` (n = 3·fields) and the report are the same
-    on every rank; ``fields`` and ``nodes_m`` hold this rank's owned rows of F and of the
-    node coordinates (in the order of the scalar space's global numbering, rank by rank);
-    ``groups`` maps every surface group to (global node indices, weights), on every rank.
-    """
-
-    mass: np.ndarray
-    stiffness: np.ndarray
-    gravity: np.ndarray
-    fields: np.ndarray
-    nodes_m: np.ndarray
-    field_names: tuple[str, ...]
-    groups: dict[str, tuple[np.ndarray, np.ndarray]]
-    frequencies_hz: np.ndarray
-    reduced_frequencies_hz: np.ndarray
-    report: dict
-    tolerances: dict
-
-
 def reduce_body(model: FEModel, modes: Modes, body: BodyMesh,
-                settings: SelectionConfig) -> Reduction:
-    """Select fields, build Mr, Kr and the gravity matrix (collective)."""
+                settings: SelectionConfig) -> ReducedModel:
+    """Select fields, build Mr, Kr and the gravity matrix (collective).
+
+    The reduced model as this rank holds it: Mr, Kr, the gravity matrix, the groups and the
+    report (``selection``) complete and the same on every rank, the rows of F and of the node
+    coordinates only this rank's owned ones (all of them on one rank;
+    ``pipeline.reduced_model`` gathers them). Its provenance is left to the file layer.
+    """
     t0 = time.perf_counter()
     fields = basis.field_basis(model, modes)
     weighted = fields.gram_mass if settings.weighting == "mass" else fields.gram_euclid
@@ -109,7 +91,9 @@ def reduce_body(model: FEModel, modes: Modes, body: BodyMesh,
                       "selection_and_reduction": t_select + t_reduce},
     }
 
-    return Reduction(mass=Mr, stiffness=Kr, gravity=gravity, fields=F, nodes_m=model.nodes,
-                     field_names=names, groups=group_weights(body, model.Vs),
-                     frequencies_hz=full_hz, reduced_frequencies_hz=reduced_hz, report=report,
-                     tolerances=settings.to_json())
+    groups = {name: NodeGroup(nodes=nodes, weights=weights)
+              for name, (nodes, weights) in group_weights(body, model.Vs).items()}
+    return ReducedModel(mass=Mr, stiffness=Kr, gravity=gravity, fields=F, nodes_m=model.nodes,
+                        field_names=names, groups=groups, frequencies_hz=full_hz,
+                        reduced_frequencies_hz=reduced_hz, selection=report,
+                        tolerances=settings.to_json())

@@ -1,4 +1,4 @@
-"""Which GCMS fields to keep: cosine similarity, then a rank-revealing SVD (DESIGN §3).
+"""Which GCMS fields to keep: cosine similarity, then a rank-revealing SVD (docs/design.md §4).
 
 Works on the small Gram matrix W of the fields (mass-weighted G = Fᵀ Ms F by default,
 Euclidean FᵀF on request); never on Φ, whose columns are dependent exactly when fields
@@ -20,7 +20,8 @@ rotation. The four rigid fields 1, X, Y, Z are never dropped.
    reported with its relative residual after the kept ones.
 3. Optionally (``orthonormalize``) the kept flexible fields are M-orthonormalised against
    the rigid fields and each other (the "preconditioned" basis): Mr becomes
-   block-diagonal, the rigid block untouched and the flexible block the identity.
+   block-diagonal, the flexible block the identity and the rigid block scaled to unit mass
+   and unit trace of its X, Y, Z part (``orthonormalizing_transform``).
 
 ``weighting`` picks the Gram matrix the tests run on: G = Fᵀ Ms F (mass) or FᵀF (euclidean).
 """
@@ -48,7 +49,7 @@ def mode_scales(gram: np.ndarray) -> np.ndarray:
     """Per-field scale: 1/√W for field 1, one scale for X, Y, Z and one per mode's three fields.
 
     A rotation of the body mixes X, Y, Z and the three components of each mode by the same
-    orthogonal matrix; these scales are invariant under it (DESIGN §3, orientation).
+    orthogonal matrix; these scales are invariant under it (docs/design.md §4, orientation).
     """
     d = np.diag(gram)
     nf = len(d)

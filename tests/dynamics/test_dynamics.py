@@ -1,10 +1,12 @@
 """The standalone integrator (``gcms_fenicsx.dynamics``) against references nobody tuned:
 objectivity and the exact tangent (finite differences), conservation laws and the order of
 generalized-α, eigenfrequencies (FFT), damping rates, joints (rigid pendulum theory, drive
-angle, static equilibrium) and loads (linear statics, Timoshenko, energy balance).
+angle, static equilibrium) and loads (energy balance).
 
-The bodies are small steel beams (30 × 20 mm rectangle, 0.5 m, x from 0 to L) reduced by
-``gcms reduce``; the node groups ``end_x0`` and ``end_xL`` are the end faces.
+The body is the six-mode test beam of ``beams`` (30 × 20 mm rectangle, 0.5 m, x from 0 to
+L; the node groups ``end_x0`` and ``end_xL`` are the end faces), read from its committed
+reduced.h5. The cantilever statics against Timoshenko, which needs the thirty-mode beam, is
+``tests/test_cantilever_statics.py``.
 """
 from __future__ import annotations
 
@@ -13,8 +15,9 @@ import math
 import numpy as np
 import pytest
 
-from conftest import gcms_reduce
-from gcms_fenicsx.dynamics.body import Body, body_from_reduced
+from beams import (E_STEEL, GRAVITY, HEIGHT_Z, LENGTH, RHO_STEEL, WIDTH_Y,
+                   linear_static_displacement)
+from gcms_fenicsx.dynamics.body import Body
 from gcms_fenicsx.dynamics.corotated import (elastic_state, elastic_tangent,
                                              translation_free_force, without_translation)
 from gcms_fenicsx.dynamics.joints import build_constraints
@@ -22,53 +25,14 @@ from gcms_fenicsx.dynamics.rotation import rotation_about, skew
 from gcms_fenicsx.dynamics.scene import parse_scene
 from gcms_fenicsx.dynamics.simulate import elastic_modes, modal_history, simulate_body
 from gcms_fenicsx.references.spectra import peak_frequency_hz
-from gcms_fenicsx.files.reduced_model import read_reduced
 
 EPS = np.finfo(float).eps
-LENGTH, WIDTH_Y, HEIGHT_Z = 0.5, 0.03, 0.02
-E_STEEL, NU_STEEL, RHO_STEEL = 210e9, 0.3, 7850.0
-GRAVITY = 9.81
-
-#: The test beam, with cosine_tolerance = 1e-12 spelled out (the default since a looser one
-#: was found to drop the Poisson-contraction fields of slender beams, which the statics and
-#: frequency tests here depend on).
-BEAM_STUDY = f"""
-[geometry]
-kind = "beam"
-section = "rectangle"
-width = {WIDTH_Y}
-height = {HEIGHT_Z}
-length = {LENGTH}
-
-[mesh]
-size = 0.012
-
-[modes]
-count = {{count}}
-
-[selection]
-cosine_tolerance = 1e-12
-"""
-
-
-def beam_study(count: int = 6) -> str:
-    return BEAM_STUDY.replace("{count}", str(count))
 
 
 @pytest.fixture(scope="module")
-def beam(beam6_reduced):
+def beam(beam6_model, beam6_body):
     """(model, body): the beam with six elastic modes (66 coordinates)."""
-    model = read_reduced(beam6_reduced)
-    return model, body_from_reduced(model)
-
-
-@pytest.fixture(scope="module")
-def beam30(tmp_path_factory):
-    """(model, body): the same beam with thirty elastic modes (282 coordinates), for statics."""
-    folder = tmp_path_factory.mktemp("beam30")
-    model = read_reduced(gcms_reduce(beam_study(30), folder / "study.toml", folder)
-                         / "reduced.h5")
-    return model, body_from_reduced(model)
+    return beam6_model, beam6_body
 
 
 def scene(**table):
@@ -415,17 +379,6 @@ def test_fixed_joint_under_gravity_settles_and_carries_the_weight(beam):
     assert constraint_residual_ratio(body, sc, traj) <= 100
 
 
-def linear_static_displacement(body: Body, sc, force: np.ndarray, group: str) -> np.ndarray:
-    """Displacement of ``group`` from the linear statics of the reduced model: [Kr Cᵀ; C 0]
-    [Δq; λ] = [f; 0] with the joint rows of ``sc`` at q0."""
-    c = build_constraints(body, sc.joints, body.q0)
-    C = c.jacobian(c.directions_at(0.0))
-    n, m = body.dofs, c.count
-    kkt = np.block([[body.stiffness, C.T], [C, np.zeros((m, m))]])
-    dq = np.linalg.solve(kkt, np.concatenate([force, np.zeros(m)]))[:n]
-    return dq.reshape(-1, 3).T @ body.groups[group].position
-
-
 def test_spherical_joint_holds_its_group_and_angular_momentum_about_the_vertical(beam):
     """A spherical joint at x = 0, gravity −z, the beam started turning about the joint
     (ω = (0, 3, 4) rad/s, a velocity field the joint allows): the joint's group stays where
@@ -458,16 +411,13 @@ def test_spherical_joint_holds_its_group_and_angular_momentum_about_the_vertical
 
 
 def test_joint_that_removes_part_of_the_initial_spin_is_integrated(beam):
-    """KNOWN BUG (fails today). A ball joint at x = 0 on a beam told to spin at 4 rad/s about
-    its centre of mass: the joint removes the part of that velocity it forbids (the
-    Mr-nearest allowed velocity), and the run must then go on like any pendulum — as it does
-    when the same pendulum starts with a velocity the joint allows (2 Newton iterations per
-    step, test above). Today the default "rotated" Jacobian fails in the first steps at
-    h = 1e-3 ("affine map of the body has det = -5e+11 ... inverted or collapsed"), 5e-4 and
-    2e-4 (Newton does not converge), and so does "exact"; only "assembled" converges, with a
-    relative energy drift of 0.5. The Mr-projection puts ~15 % of the kinetic energy into the
-    reduced model's stiffest modes (up to 230 kHz), whose predicted strains make the change
-    of frame inside one step far from the frozen R of the modified Newton."""
+    """A ball joint at x = 0 on a beam told to spin at 4 rad/s about its centre of mass: the
+    joint removes the part of that velocity it forbids, within the rigid velocities
+    (``initial.consistent_velocity``), and the run goes on like any pendulum — as it does when
+    the same pendulum starts with a velocity the joint allows (test above). An Mr-projection
+    over all coordinates instead puts ~15 % of the kinetic energy into the reduced model's
+    stiffest modes (up to 230 kHz), and every Jacobian but "assembled" then failed in the
+    first steps."""
     _, body = beam
     traj, summary = simulate_body(body, scene(
         end_time=0.05, time_step=1e-3, gravity=[0.0, 0.0, -GRAVITY],
@@ -477,14 +427,13 @@ def test_joint_that_removes_part_of_the_initial_spin_is_integrated(beam):
 
 
 def test_default_newton_converges_where_the_textbook_newton_does(beam):
-    """KNOWN BUG (fails today). A cantilever pulled down by a tip load ramped to 30 kN over
-    20 ms (h = 1 ms, no damping; the tip ends 0.18 m down, a large but smooth deflection):
-    Newton with the exact matrix assembled in every iteration ("assembled") converges in
-    3.6 iterations per step on average (5 at most). The default "rotated" Newton — R frozen
-    at the first iteration of a step, the rank-9 frame term added later with the same R —
-    must converge too and to the same solution (tip within 1e-6 of the "assembled" one, both
-    at Newton tolerance 1.4e-11 m); today it stops at t = 5 ms after 25 iterations ("exact"
-    is no better: inverted body at 8 ms)."""
+    """A cantilever pulled down by a tip load ramped to 30 kN over 20 ms (h = 1 ms, no damping;
+    the tip ends 0.18 m down, a large but smooth deflection): Newton with the exact matrix
+    assembled in every iteration ("assembled") converges in 3.6 iterations per step on
+    average (5 at most). The default "rotated" Newton — R frozen at the first iteration of a
+    step, full Newton for a step whose correction does not shrink (``jacobian``) — converges
+    too and to the same solution (tip within 1e-6 of the "assembled" one, both at Newton
+    tolerance 1.4e-11 m); without the switch to full Newton it stopped at t = 5 ms."""
     _, body = beam
 
     def run(jacobian: str):
@@ -507,40 +456,6 @@ def test_default_newton_converges_where_the_textbook_newton_does(beam):
 
 
 # -- 5. loads ------------------------------------------------------------------------------
-
-def test_ramped_tip_load_settles_to_the_static_cantilever_deflection(beam30):
-    """A 100 N end load (−z, ramped over 20 ms) on a cantilever (fixed joint at x = 0), with
-    β = 3e-3 damping, settles to:
-
-    - the deflection the reduced stiffness predicts (linear solve with the joint rows) to
-      1e-4 (the co-rotated model differs by O((δ/L)²) ~ 4e-6);
-    - Timoshenko's cantilever, δ = F L³/(3 E I_y) + F L/(κ G A), κ = 10(1+ν)/(12+11ν)
-      (Cowper 1966), within a few percent: the reduced model of 30 free–free modes is a
-      Rayleigh–Ritz approximation, hence stiffer (δ ≤ δ_FE), and the joint holds the end
-      face only in the mean, so 0.95 < δ/δ_Timoshenko < 1.02;
-    - a joint force equal and opposite to the load (1e-6)."""
-    _, body = beam30
-    F = 100.0
-    sc = scene(end_time=0.08, time_step=1e-4, damping={"beta": 3e-3},
-               joints=[{"type": "fixed", "group": "end_x0", "name": "clamp"}],
-               loads=[{"group": "end_xL", "force": [0.0, 0.0, -F], "time": "ramp",
-                       "ramp_time": 0.02, "name": "tip"}],
-               outputs={"groups": ["end_xL"], "every": 10})
-    traj, summary = simulate_body(body, sc)
-    assert summary["complete"], summary["message"]
-    tip = traj.groups["end_xL"]["position"]
-    settled = tip[-1] - tip[0]
-    load = np.kron(body.groups["end_xL"].position, [0.0, 0.0, -F])
-    predicted = linear_static_displacement(body, sc, load, "end_xL")
-    assert settled[2] == pytest.approx(predicted[2], rel=1e-4)
-    np.testing.assert_allclose(traj.joint_force("clamp")[-1], [0.0, 0.0, F], atol=1e-6 * F)
-
-    G = E_STEEL / (2 * (1 + NU_STEEL))
-    area, I_y = WIDTH_Y * HEIGHT_Z, WIDTH_Y * HEIGHT_Z ** 3 / 12
-    kappa = 10 * (1 + NU_STEEL) / (12 + 11 * NU_STEEL)
-    timoshenko = F * LENGTH ** 3 / (3 * E_STEEL * I_y) + F * LENGTH / (kappa * G * area)
-    assert 0.95 < -settled[2] / timoshenko < 1.02, -settled[2] / timoshenko
-
 
 def test_harmonic_load_work_closes_the_energy_balance(beam):
     """A harmonic end load (50 N along z at 30 Hz, phase 30°) on a cantilever, no damping,

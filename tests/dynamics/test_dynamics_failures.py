@@ -2,7 +2,8 @@
 Newton divergence (not "inverted"), a time step too large for the round-off of Kr (not
 "dependent fields"), and a summary whose undefined numbers are null, not NaN or Infinity.
 
-The body is the six-mode test beam of ``test_dynamics`` (30 × 20 mm, 0.5 m).
+The body is the six-mode test beam of ``beams`` (30 × 20 mm, 0.5 m), read from its committed
+reduced.h5.
 """
 from __future__ import annotations
 
@@ -12,19 +13,17 @@ import re
 import numpy as np
 import pytest
 
-from gcms_fenicsx.dynamics.body import body_from_reduced
 from gcms_fenicsx.dynamics.alpha import AlphaParameters
 from gcms_fenicsx.dynamics.scene import SceneError, parse_scene
 from gcms_fenicsx.dynamics.simulate import elastic_modes, simulate_body
-from gcms_fenicsx.files.reduced_model import read_reduced
 
 EPS = np.finfo(float).eps
 NUMBER = r"[-+0-9.e]+"
 
 
 @pytest.fixture(scope="module")
-def body(beam6_reduced):
-    return body_from_reduced(read_reduced(beam6_reduced))
+def body(beam6_body):
+    return beam6_body
 
 
 def test_newton_divergence_is_reported_as_newton_divergence(body):

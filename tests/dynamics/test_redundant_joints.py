@@ -2,8 +2,8 @@
 built (``joints.independent_rows``), reported, and the motion is the one of the joint alone;
 a drive that another joint contradicts is bad input.
 
-The body is the six-mode test beam of ``test_dynamics`` (30 × 20 mm, 0.5 m); every joint is
-on its end face ``end_x0``.
+The body is the six-mode test beam of ``beams`` (30 × 20 mm, 0.5 m), read from its committed
+reduced.h5; every joint is on its end face ``end_x0``.
 """
 from __future__ import annotations
 
@@ -12,18 +12,16 @@ from dataclasses import asdict
 import numpy as np
 import pytest
 
-from gcms_fenicsx.dynamics.body import body_from_reduced
 from gcms_fenicsx.dynamics.joints import build_constraints, independent_rows
 from gcms_fenicsx.dynamics.scene import SceneError, parse_scene
 from gcms_fenicsx.dynamics.simulate import simulate_body
-from gcms_fenicsx.files.reduced_model import read_reduced
 
 EPS = np.finfo(float).eps
 
 
 @pytest.fixture(scope="module")
-def body(beam6_reduced):
-    return body_from_reduced(read_reduced(beam6_reduced))
+def body(beam6_body):
+    return beam6_body
 
 
 def joint(kind: str, name: str, **keys) -> dict:

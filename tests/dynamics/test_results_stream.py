@@ -2,7 +2,8 @@
 in the number of steps), refused before the run when it would not fit, sealed with content
 checksums; progress lines with the rate and the time left.
 
-The body is the six-mode test beam of ``test_dynamics`` (30 × 20 mm, 0.5 m).
+The body is the six-mode test beam of ``beams`` (30 × 20 mm, 0.5 m), read from its committed
+reduced.h5.
 """
 from __future__ import annotations
 
@@ -16,7 +17,6 @@ import numpy as np
 import pytest
 
 from gcms_fenicsx.dynamics import results
-from gcms_fenicsx.dynamics.body import body_from_reduced
 from gcms_fenicsx.dynamics.capacity import Capacity, check_capacity
 from gcms_fenicsx.dynamics.joints import build_constraints
 from gcms_fenicsx.dynamics.recorder import record_plan
@@ -24,9 +24,8 @@ from gcms_fenicsx.dynamics.results import RESULTS_SCHEMA_VERSION, ResultsError, 
 from gcms_fenicsx.dynamics.scene import SceneError, parse_scene
 from gcms_fenicsx.dynamics.simulate import simulate, simulate_body, simulate_to_file
 from gcms_fenicsx.files.plots import plot_results, read_plot_data
-from gcms_fenicsx.files.reduced_model import read_reduced
 from gcms_fenicsx.files.versioned import dataset_digest
-from test_simulate_cli import assert_one_line_error, contents, output_folder, standalone, study
+from simulate_runs import assert_one_line_error, contents, output_folder, standalone, study
 
 #: The module (the package's ``simulate`` is the function of that name).
 SIMULATE_MODULE = importlib.import_module("gcms_fenicsx.dynamics.simulate")
@@ -47,13 +46,13 @@ def everything(end_time: float = 0.05, **outputs):
 
 
 @pytest.fixture(scope="module")
-def model(beam6_reduced):
-    return read_reduced(beam6_reduced)
+def model(beam6_model):
+    return beam6_model
 
 
 @pytest.fixture(scope="module")
-def body(model):
-    return body_from_reduced(model)
+def body(beam6_body):
+    return beam6_body
 
 
 def test_streamed_results_equal_the_in_memory_ones(model, body, tmp_path, monkeypatch):
@@ -128,7 +127,7 @@ def test_memory_of_a_streamed_run_does_not_grow_with_its_length(model, body, tmp
     assert kept[1] - kept[0] >= 0.9 * extra, (kept, extra)
 
 
-def test_results_beyond_the_free_disk_space_are_refused_before_the_run(beam6_reduced, tmp_path):
+def test_results_beyond_the_free_disk_space_are_refused_before_the_run(beam6_file, tmp_path):
     """end_time = 1e9 s at 1 ms (today: a traceback allocating 7 TiB): the standalone
     integrator stops with exit status 2 and one line naming [scene] end_time and its value,
     the estimate (steps, rows, bytes) and the free space where results.h5 goes; nothing is
@@ -139,7 +138,7 @@ def test_results_beyond_the_free_disk_space_are_refused_before_the_run(beam6_red
     config.write_text(text)
     out = output_folder(tmp_path)
     before = contents(out)
-    run = standalone(str(beam6_reduced), str(config), "--out", str(out))
+    run = standalone(str(beam6_file), str(config), "--out", str(out))
     assert_one_line_error(run, "[scene] end_time = 1e+09: 1e+12 steps of 0.001 s record "
                           "1e+12 rows", "TB of results, more than the", "B free on ")
     assert "simulate: t =" not in run.stderr
