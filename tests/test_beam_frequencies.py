@@ -4,15 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from mpi4py import MPI
 
 from beam_theory import bar_hz, cowper_kappa, rectangle_torsion_constant, timoshenko_hz, torsion_hz
 from gcms_fenicsx import pipeline
 from gcms_fenicsx.fe import algebra, assembly, modes
 from gcms_fenicsx.config.material import Material
-from gcms_fenicsx.fe.mesh import read_mesh
 from gcms_fenicsx.config.modes import ModesConfig
-from geometry import build_msh
 from gcms_fenicsx.config.geometry import parse_geometry, parse_mesh
 
 STEEL = Material()
@@ -56,10 +53,8 @@ def _ms(model: assembly.FEModel, values: np.ndarray) -> np.ndarray:
 def _solve(tmp_path, geometry: dict, mesh_table: dict | None = None):
     geom = parse_geometry({"kind": "beam", "length": L, **geometry})
     mesh = parse_mesh(mesh_table or {}, geom)
-    info = build_msh(geom, mesh, tmp_path / "beam.msh")
-    body = read_mesh(tmp_path / "beam.msh", info.groups, MPI.COMM_SELF)
-    model = pipeline.assembly_stage(body.mesh, STEEL).model
-    modes = pipeline.modes_stage(model, ModesConfig(count=12))
+    chain = pipeline.free_free(geom, mesh, STEEL, ModesConfig(count=12), tmp_path)
+    model, modes = chain.assembly.model, chain.modes
     return model, modes, classify(model, modes), mesh.size
 
 

@@ -6,24 +6,21 @@ import json
 
 import numpy as np
 import pytest
-from mpi4py import MPI
 
 from conftest import mpirun
-from gcms_fenicsx.fe import assembly, mass
-from gcms_fenicsx.fe.mesh import read_mesh
-from geometry import build_msh
+from gcms_fenicsx import pipeline
 from gcms_fenicsx.config.geometry import parse_geometry, parse_mesh
+from gcms_fenicsx.config.material import Material
 
 
 @pytest.mark.parametrize("throws", [1, 2, 4, 6])
 def test_crankshaft_mass_properties_match_the_cad_to_half_a_percent(tmp_path, throws):
     """Default order-2 mesh (size 0.6 × web_thickness = 10.8 mm)."""
     geom = parse_geometry({"kind": "crankshaft", "throws": throws})
-    info = build_msh(geom, parse_mesh({}, geom), tmp_path / "mesh.msh")
-    body = read_mesh(tmp_path / "mesh.msh", info.groups, MPI.COMM_SELF)
-    Ms, nodes = assembly.assemble_scalar_mass(body.mesh)
-    mesh = mass.mass_properties(Ms, nodes, rho=1.0)
-    cad = info.mass_properties
+    product = pipeline.mesh_stage(geom, parse_mesh({}, geom), tmp_path)
+    mesh = pipeline.assembly_stage(pipeline.body_mesh(product).mesh,
+                                   Material()).mass_properties  # per unit density
+    cad = product.info.mass_properties
     assert mesh.volume_m3 == pytest.approx(cad["volume_m3"], rel=5e-3)
     length = np.ptp(np.asarray(cad["bounding_box_m"]), axis=0).max()
     assert np.linalg.norm(mesh.center_of_mass_m - cad["center_of_mass_m"]) < 5e-3 * length
