@@ -1,4 +1,5 @@
-"""Integrator speed: steps per second of the reduced GCMS pendulum for Nm = 5, 10, 20, 50.
+"""Integrator speed: steps per second of the reduced GCMS pendulum for Nm = 5, 10, 20, 50,
+and of the default scene, against the code before a change.
 
 The case is the flexible pendulum of ``gcms_fenicsx.pendulum`` (revolute joint, gravity,
 h = 1 ms, 1 s), in its soft polymer (E = 0.1 GPa: the validation case, strains ~1e-3) and in
@@ -11,13 +12,23 @@ reference's rank-deficient Φ), it times the run with
 - the baseline in the same run: textbook Newton with the exact iteration matrix assembled
   and LU-factorised in every iteration ("assembled"), on the same steps.
 
+With ``--before DIR`` (a checkout of an earlier commit: ``git worktree add DIR <commit>``),
+every default-selection case, the soft Nm = 10 pendulum with every Newton matrix exact, with
+Rayleigh damping and as a free spinning body (``VARIANTS``), and the default scene of
+``gcms run`` (the crankshaft spun up in its bearings while its cylinders fire) are also run
+with that code on the same reduced model, alternating with this one, each run in a fresh
+process (``--worker``): the table gives µs per step before and after, their ratio, whether
+every step's Newton iterations agree, and the largest differences of q and λ over the run,
+relative to their largest values.
+
 One BLAS thread (small dense algebra gains nothing from threads). Each timing is the best
-of ``--repeat`` runs; the ratio of the two is the figure to read, since this machine is
-shared and its absolute speed varies.
+of ``--repeat`` runs; ratios are the figures to read, since this machine is shared and its
+absolute speed varies.
 
     python workflows/bench_integrator.py [--out docs/bench_integrator] [--repeat 3]
+                                         [--before DIR]
 
-writes OUT.json, OUT.png and prints the table recorded in README.md.
+writes OUT.json, OUT.png and prints the tables recorded in README.md.
 """
 from __future__ import annotations
 
@@ -28,6 +39,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before NumPy
 import argparse
 import json
 import logging
+import subprocess
 import sys
 import tempfile
 from dataclasses import replace
@@ -35,7 +47,10 @@ from pathlib import Path
 
 MODE_COUNTS = (5, 10, 20, 50)
 MATERIALS_E_PA = {"soft": 1.0e8, "stiff": 3.0e9}
+VARIANT_MODES = 10      # the variants run on the soft pendulum with this Nm
 BASELINE_TIME_S = 0.1   # the assembled baseline is slow: its rate is measured on 100 steps
+HERE = Path(__file__).resolve().parent
+REPO = HERE.parent
 
 
 def log(message: str) -> None:
@@ -43,8 +58,8 @@ def log(message: str) -> None:
 
 
 def bodies():
-    """(material, Nm, selection, body or failure message) for every case, one mesh and one
-    solve per material."""
+    """(material, Nm, selection, reduced model or None, body or failure message) for every
+    case, one mesh and one solve per material."""
     from gcms_fenicsx import pipeline
     from gcms_fenicsx.config.material import parse_material
     from gcms_fenicsx.config.selection import SelectionConfig
@@ -68,14 +83,16 @@ def bodies():
                     reduction = pipeline.reduction_stage(model, modes.lowest(nm), body_mesh,
                                                          settings)
                 except ReductionError as exc:
-                    yield material, nm, label, None, str(exc)
+                    yield material, nm, label, None, None, str(exc)
                     continue
-                body = body_from_reduced(pipeline.reduced_model(reduction))
-                yield material, nm, label, body, reduction.selection
+                reduced = pipeline.reduced_model(reduction)
+                yield (material, nm, label, reduced, body_from_reduced(reduced),
+                       reduction.selection)
 
 
 def timed(body, scene, jacobian: str, repeat: int) -> dict:
-    """Best of ``repeat`` runs: steps/s, µs per step, Newton iterations; or the failure."""
+    """Best of ``repeat`` runs in this process: steps/s, µs per step, Newton iterations; or
+    the failure."""
     from gcms_fenicsx.dynamics.errors import IntegrationError
     from gcms_fenicsx.dynamics.simulate import simulate_body
 
@@ -97,33 +114,169 @@ def timed(body, scene, jacobian: str, repeat: int) -> dict:
     return best
 
 
+#: Scenes a ``--worker`` runs, as tables both codes parse: the pendulum, its variants with
+#: every iteration exact, with Rayleigh damping and a free body spinning (soft Nm = 10 model),
+#: and "default", the built-in study's scene.
+VARIANTS = {"pendulum": {},
+            "exact Newton matrix": {"solver": {"jacobian": "exact"}},
+            "damped": {"damping": {"alpha": 0.5, "beta": 4e-3}, "end_time": 0.3},
+            "free spin": {"end_time": 0.2, "joints": [], "gravity": [0.0, 0.0, 0.0],
+                          "initial": {"angular_velocity": [1.0, 2.0, 3.0], "mode": 1,
+                                      "amplitude": 1e-3}}}
+
+
+def worker(model_path: str, scene_name: str, runs: int, save: str) -> None:
+    """Run ``scene_name`` (a key of VARIANTS or "default") on the reduced model ``runs`` times
+    with the ``gcms_fenicsx`` this process imports and print the best timing as JSON; then
+    once more recording q and save q, λ and the Newton iterations of every step to ``save``
+    (.npz)."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from gcms_fenicsx.dynamics import parse_scene, read_reduced, simulate
+
+    if scene_name == "default":
+        import tomllib
+
+        from gcms_fenicsx.config.study import default_config_text, parse_config
+        scene = parse_config(tomllib.loads(default_config_text())).scene
+    else:
+        from gcms_fenicsx.references import pendulum
+        scene = parse_scene(dict(pendulum.STUDY["scene"], **VARIANTS[scene_name]))
+    model = read_reduced(model_path)
+    best = None
+    for _ in range(runs):
+        _, summary = simulate(model, scene)
+        if not summary["complete"]:
+            print(json.dumps({"failed": summary["message"]}))
+            return
+        if best is None or summary["time_per_step_us"] < best["time_per_step_us"]:
+            best = {k: summary[k] for k in ("time_per_step_us", "steps_per_second",
+                                            "newton_iterations_mean", "steps", "wall_time_s")}
+    every = replace(scene.outputs, coordinates=True, every=1)
+    traj, _ = simulate(model, replace(scene, outputs=every))
+    np.savez(save, iterations=traj.newton_iterations, q=traj.coordinates["q"],
+             multipliers=traj.multipliers)
+    print(json.dumps(dict(best, reduced_dofs=int(traj.coordinates["q"].shape[1]))))
+
+
+def run_worker(code: Path, model_path: Path, scene_name: str, save: Path) -> dict:
+    """One ``--worker`` process importing ``gcms_fenicsx`` from the checkout ``code``."""
+    env = dict(os.environ, PYTHONPATH=str(code), OPENBLAS_NUM_THREADS="1")
+    out = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--worker",
+                          str(model_path), "--scene", scene_name, "--save", str(save)],
+                         env=env, cwd=code, capture_output=True, text=True)
+    if out.returncode:
+        return {"failed": out.stderr.strip().splitlines()[-1]}
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def before_after(model_path: Path, scene_name: str, before: Path, rounds: int) -> dict:
+    """µs per step with the code in ``before`` and with this checkout, alternating, best of
+    ``rounds`` each; whether every step's Newton iterations agree, and the largest difference
+    of q (relative to the largest |q|) and of λ (relative to the largest |λ|) over the run."""
+    import numpy as np
+
+    best: dict[str, dict] = {}
+    saves = {"before": model_path.with_suffix(f".{scene_name}.before.npz"),
+             "after": model_path.with_suffix(f".{scene_name}.after.npz")}
+    for _ in range(rounds):
+        for label, code in (("before", before), ("after", REPO)):
+            run = run_worker(code, model_path, scene_name, saves[label])
+            if "failed" in run:
+                return {label: run}
+            if label not in best or run["time_per_step_us"] < best[label]["time_per_step_us"]:
+                best[label] = run
+    a, b = np.load(saves["before"]), np.load(saves["after"])
+    lam = np.abs(a["multipliers"]).max() if a["multipliers"].size else 0.0
+    best["same_iterations"] = bool(np.array_equal(a["iterations"], b["iterations"]))
+    best["max_rel_q_difference"] = float(np.abs(a["q"] - b["q"]).max() / np.abs(a["q"]).max())
+    best["max_rel_multiplier_difference"] = (
+        float(np.abs(a["multipliers"] - b["multipliers"]).max() / lam) if lam else 0.0)
+    best["speedup"] = best["before"]["time_per_step_us"] / best["after"]["time_per_step_us"]
+    return best
+
+
+def default_scene_model(folder: Path) -> tuple[Path, int]:
+    """The reduced model of ``gcms run``'s built-in study, through the pipeline's stages, and
+    its mode count."""
+    import tomllib
+
+    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.config.study import default_config_text, parse_config
+    from gcms_fenicsx.files.reduced_model import write_reduced
+
+    cfg = parse_config(tomllib.loads(default_config_text()))
+    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, folder)
+    reduction = pipeline.reduction_stage(chain.assembly.model, chain.modes, chain.body,
+                                         cfg.selection)
+    path = folder / "default_scene.h5"
+    write_reduced(path, pipeline.reduced_model(reduction))
+    return path, cfg.modes.count
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("docs/bench_integrator"))
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--before", type=Path, default=None,
+                        help="a checkout of the code to compare against")
+    parser.add_argument("--worker", default=None, help=argparse.SUPPRESS)
+    parser.add_argument("--scene", default="pendulum", help=argparse.SUPPRESS)
+    parser.add_argument("--save", default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.worker:
+        worker(args.worker, args.scene, 2, args.save)
+        return
+    if args.before is not None and not (args.before / "gcms_fenicsx").is_dir():
+        parser.error(f"--before {args.before}: no gcms_fenicsx package there (make one with "
+                     "git worktree add DIR <commit>)")
     logging.disable(logging.INFO)
     from gcms_fenicsx.dynamics.scene import parse_scene
+    from gcms_fenicsx.files.reduced_model import write_reduced
     from gcms_fenicsx.references import pendulum
 
     scene = parse_scene(pendulum.STUDY["scene"])
-    rows = []
-    for material, nm, label, body, report in bodies():
-        row = {"material": material, "modes": nm, "selection": label}
-        if body is None:
-            row["failed"] = report
-        else:
-            row.update(reduced_dofs=body.dofs, cond_mr=report["cond_mr_after"],
-                       pruning_error=report["max_rel_frequency_error"])
-            row["rotated"] = timed(body, scene, "rotated", args.repeat)
-            row["assembled"] = timed(body, scene, "assembled", args.repeat)
-        rows.append(row)
-        log(f"{material}, Nm = {nm}, selection {label}: "
-            f"{json.dumps({k: v for k, v in row.items() if k in ('reduced_dofs', 'failed')})}")
+    rows: list[dict] = []
+    variants: dict[str, dict] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for material, nm, label, model, body, report in bodies():
+            row = {"material": material, "modes": nm, "selection": label}
+            if body is None:
+                row["failed"] = report
+            else:
+                row.update(reduced_dofs=body.dofs, cond_mr=report["cond_mr_after"],
+                           pruning_error=report["max_rel_frequency_error"])
+                row["rotated"] = timed(body, scene, "rotated", args.repeat)
+                row["assembled"] = timed(body, scene, "assembled", args.repeat)
+                if args.before is not None and label == "default":
+                    path = Path(tmp) / f"{material}{nm}.h5"
+                    write_reduced(path, model)
+                    row["before_after"] = before_after(path, "pendulum", args.before,
+                                                       args.repeat)
+            rows.append(row)
+            log(f"{material}, Nm = {nm}, selection {label}: "
+                f"{json.dumps({k: v for k, v in row.items() if k in ('reduced_dofs', 'failed')})}")
+        if args.before is not None:
+            for name in list(VARIANTS)[1:]:
+                log(f"soft, Nm = {VARIANT_MODES}, {name}: before and after")
+                variants[name] = dict(before_after(Path(tmp) / f"soft{VARIANT_MODES}.h5", name,
+                                                   args.before, args.repeat),
+                                      modes=VARIANT_MODES)
+            log("default scene: meshing and solving the crankshaft")
+            path, modes = default_scene_model(Path(tmp))
+            variants["default scene (crankshaft)"] = dict(
+                before_after(path, "default", args.before, args.repeat), modes=modes)
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    Path(f"{args.out}.json").write_text(json.dumps(rows, indent=1))
+    Path(f"{args.out}.json").write_text(json.dumps(
+        {"pendulum": rows, "variants": variants} if args.before is not None else rows,
+        indent=1))
     plot(rows, Path(f"{args.out}.png"))
     print(table(rows))
+    if args.before is not None:
+        print()
+        print(before_after_table(rows, variants))
 
 
 def _cell(run: dict) -> tuple[str, str, str]:
@@ -131,6 +284,27 @@ def _cell(run: dict) -> tuple[str, str, str]:
         return "failed", "", ""
     return (f"{run['steps_per_second']:,.0f}", f"{run['time_per_step_us']:,.0f}",
             f"{run['newton_iterations_mean']:.2f}")
+
+
+def before_after_table(rows: list[dict], variants: dict[str, dict]) -> str:
+    """µs per step before and after, with the trajectories' agreement, per case."""
+    lines = ["| case | Nm | reduced DOFs | µs/step before | µs/step after | speedup | same Newton "
+             "iterations | max rel. q difference | max rel. λ difference |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    cases = [(f"{r['material']} pendulum", r["modes"], r["reduced_dofs"], r["before_after"])
+             for r in rows if "before_after" in r]
+    cases += [(f"soft pendulum, {name}" if name in VARIANTS else name, ba["modes"],
+               ba.get("after", {}).get("reduced_dofs", ""), ba) for name, ba in variants.items()]
+    for name, nm, dofs, ba in cases:
+        if "speedup" not in ba:
+            lines.append(f"| {name} | {nm} | {dofs} | failed: {json.dumps(ba)[:80]} | | | | | |")
+            continue
+        lines.append(f"| {name} | {nm} | {dofs} | {ba['before']['time_per_step_us']:,.0f} | "
+                     f"{ba['after']['time_per_step_us']:,.0f} | {ba['speedup']:.2f}× | "
+                     f"{'yes' if ba['same_iterations'] else 'NO'} | "
+                     f"{ba['max_rel_q_difference']:.1e} | "
+                     f"{ba['max_rel_multiplier_difference']:.1e} |")
+    return "\n".join(lines)
 
 
 def table(rows: list[dict]) -> str:
@@ -147,7 +321,7 @@ def table(rows: list[dict]) -> str:
         bsps, _, bit = _cell(base)
         ratio = (f"{fast['steps_per_second'] / base['steps_per_second']:.1f}×"
                  if "failed" not in fast and "failed" not in base else "")
-        note = f" ({fast['failed'][:60]})" if "failed" in fast else ""
+        note = f" ({fast['failed'].split(' (')[0]})" if "failed" in fast else ""
         lines.append(f"| {r['material']} | {r['modes']} | {r['selection']} | {r['reduced_dofs']} "
                      f"| {r['cond_mr']:.1e} | {sps}{note} | {us} | {it} | {bsps} | {bit} | {ratio} |")
     return "\n".join(lines)

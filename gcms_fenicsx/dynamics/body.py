@@ -19,7 +19,8 @@ with ``@``); this module itself needs NumPy only.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from functools import cached_property
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -64,6 +65,59 @@ def group_rows(field_rows: Any, weights: np.ndarray, coords: np.ndarray) -> Grou
                      affine=weighted @ pinv, span=vecs[:, inside], center_m=center)
 
 
+#: Π and Πᵀ are dense nf × nf matrices up to this many fields (8 MB); a larger body (the
+#: full finite-element model) applies them as rank-one updates.
+DENSE_PROJECTION_FIELDS = 1000
+
+
+class RankOneUpdate(NamedTuple):
+    """I − u vᵀ applied to (nf, k) arrays by ``dot``, without forming it."""
+
+    u: np.ndarray   # (nf, 1)
+    v: np.ndarray   # (1, nf)
+
+    def dot(self, X: np.ndarray) -> np.ndarray:
+        return X - self.u.dot(self.v.dot(X))
+
+
+#: Above this many coordinates Mr = G ⊗ I3 is applied through G (nf × nf): a third of the
+#: arithmetic, for one reshape more (measured break-even: about 70 coordinates).
+KRON_MASS_DOFS = 75
+
+
+class KronMass(NamedTuple):
+    """Mr = G ⊗ I3 applied by ``dot`` to vectors (n,) through G."""
+
+    gram: np.ndarray
+
+    def dot(self, x: np.ndarray) -> np.ndarray:
+        return self.gram.dot(x.reshape(-1, 3)).ravel()
+
+
+class ProjectedOperator(NamedTuple):
+    """(Πᵀ ⊗ I3) A applied by ``dot`` to vectors (n,), without forming it."""
+
+    operator: Any
+    force: Any      # Πᵀ, applied to (nf, 3)
+
+    def dot(self, e: np.ndarray) -> np.ndarray:
+        return self.force.dot(self.operator.dot(e).reshape(-1, 3)).ravel()
+
+
+class Projections(NamedTuple):
+    """The translation projections of the co-rotated energy (``corotated``), each applied to
+    (nf, k) arrays by ``dot``: Π = I − k1 g1ᵀ / m removes the mean translation from
+    displacements, Πᵀ = I − g1 k1ᵀ / m the net force from forces; (Πᵀ ⊗ I3) Kr, applied to
+    vectors e (n,); Π Q0; and [H [e_k]×]_k (3, 3 nf), so that H [b]× = (b · that).reshape(nf,
+    3)."""
+
+    deformation: Any
+    force: Any
+    stiffness: Any
+    q0: np.ndarray
+    affine_cross: np.ndarray
+
+
 @dataclass(frozen=True)
 class Body:
     """Constant matrices and rigid-field data of one flexible body in GCMS coordinates.
@@ -91,6 +145,28 @@ class Body:
     def dofs(self) -> int:
         return self.q0.shape[0]
 
+    @cached_property
+    def projections(self) -> Projections:
+        """Π, Πᵀ, Πᵀ Kr, Π Q0 and H [e_k]× (:class:`Projections`), dense for a reduced body."""
+        m, nf = self.total_mass_kg, self.field_count
+        k1, g1 = self.unit[:, None], self.field_mass[:, None]
+        if nf <= DENSE_PROJECTION_FIELDS:
+            deformation = np.eye(nf) - k1.dot(g1.T / m)
+            force: Any = deformation.T.copy()
+        else:
+            deformation, force = RankOneUpdate(k1, g1.T / m), RankOneUpdate(g1, k1.T / m)
+        return Projections(deformation=deformation, force=force,
+                           stiffness=projected(force, self.stiffness),
+                           q0=deformation.dot(self.q0.reshape(-1, 3)),
+                           affine_cross=(self.affine @ skew(np.eye(3))).reshape(3, -1))
+
+    @cached_property
+    def mass_product(self) -> Any:
+        """Mr for ``dot`` with vectors: itself, or :class:`KronMass` for a large dense body."""
+        if self.dofs > KRON_MASS_DOFS and isinstance(self.gram, np.ndarray):
+            return KronMass(np.ascontiguousarray(self.gram))
+        return self.mass
+
     @property
     def field_count(self) -> int:
         return self.q0.shape[0] // 3
@@ -103,14 +179,15 @@ class Body:
         """c = Qᵀ g1 / m."""
         return q.reshape(-1, 3).T @ self.field_mass / self.total_mass_kg
 
-    def momenta(self, q: np.ndarray, v: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-        """Kinetic energy ½ q̇ᵀ Mr q̇ = ½ Q̇ : G Q̇, linear momentum Q̇ᵀ g1 and angular momentum
-        L = ∫ρ x × ẋ dV = Σ_f Q_f × (G Q̇)_f about the origin (ε_ijk (Qᵀ G Q̇)_jk)."""
-        V = v.reshape(-1, 3)
-        GV = np.asarray(self.gram @ V)
-        M = q.reshape(-1, 3).T @ GV
-        return (0.5 * float(np.vdot(V, GV)), V.T @ self.field_mass,
-                np.array([M[1, 2] - M[2, 1], M[2, 0] - M[0, 2], M[0, 1] - M[1, 0]]))
+    def momenta(self, Q: np.ndarray, V: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For k states Q, Q̇ (k, nf, 3): kinetic energy ½ q̇ᵀ Mr q̇ = ½ Q̇ : G Q̇, linear
+        momentum Q̇ᵀ g1 and angular momentum L = ∫ρ x × ẋ dV = Σ_f Q_f × (G Q̇)_f about the
+        origin, of shapes (k,), (k, 3), (k, 3)."""
+        k, nf = V.shape[:2]
+        GV = np.asarray(self.gram @ V.transpose(1, 0, 2).reshape(nf, 3 * k))
+        GV = GV.reshape(nf, k, 3).transpose(1, 0, 2)
+        return (0.5 * np.einsum("kfa,kfa->k", V, GV), np.matmul(self.field_mass, V),
+                np.cross(Q, GV).sum(axis=1))
 
     def rigid_velocity(self, q: np.ndarray, velocity: np.ndarray,
                        angular_velocity: np.ndarray) -> np.ndarray:
@@ -122,6 +199,14 @@ class Body:
         Q = q.reshape(-1, 3)
         drift = np.asarray(velocity, float) - Omega @ self.center_of_mass(q)
         return (Q @ Omega.T + np.outer(self.unit, drift)).ravel()
+
+
+def projected(force: Any, A: Any) -> Any:
+    """(Πᵀ ⊗ I3) A for ``dot`` with vectors (n,), for Πᵀ = ``force`` (``Body.projections``):
+    formed once where both are dense, else :class:`ProjectedOperator`."""
+    if isinstance(force, np.ndarray) and isinstance(A, np.ndarray):
+        return force.dot(A.reshape(len(force), -1)).reshape(A.shape)
+    return ProjectedOperator(A, force)
 
 
 def elastic_modes(body: Body) -> tuple[np.ndarray, np.ndarray]:
@@ -161,7 +246,7 @@ def body_from_reduced(model: ReducedModel) -> Body:
     nf = F.shape[1]
     rigid = F[:, :4]
     unit, *_ = np.linalg.lstsq(rigid, np.ones(len(F)), rcond=None)
-    G = model.mass[::3, ::3]
+    G = np.ascontiguousarray(model.mass[::3, ::3])
     k1 = np.zeros(nf)
     k1[:4] = unit
     q0 = model.undeformed_coordinates()

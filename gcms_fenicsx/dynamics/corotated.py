@@ -6,11 +6,12 @@ Q_loc = Q R (each field's 3-vector rotated back) and the elastic energy is
     V(q) = ½ eᵀ Kr e,    e = Π (vec(Q R) − q0),
 
 where Π removes the mean translation (e − k1 ⊗ ē, ē = (Q R − Q0)ᵀ g1 / m): Kr annihilates
-translations only to its round-off, so Π makes V exactly blind to them, and the local
-forces Πᵀ Kr e have exactly no net translational part (linear momentum is conserved to
-round-off, whatever the round-off in Kr). V vanishes for
-every rigid motion (a rigid rotation is undone by R). With P = mat(Kr e) and the rotation rate of the polar decomposition
-(``rotation.rotation_rate``: dR = R [ω]×, ω = S⁻¹ w(Rᵀ dA), S = tr U · I − U),
+translations only to its round-off, so Π makes V blind to them, and the local forces
+P = mat(Πᵀ Kr e) have no net translational part (k1ᵀ Πᵀ = 0), to the round-off of forming
+(Πᵀ ⊗ I3) Kr once (``Body.projections``) times the deformation, not the translation: linear
+momentum is conserved to round-off, whatever the round-off in Kr. V vanishes for every
+rigid motion (a rigid rotation is undone by R). With the rotation rate of the polar
+decomposition (``rotation.rotation_rate``: dR = R [ω]×, ω = S⁻¹ w(Rᵀ dA), S = tr U · I − U),
 
     ∂V/∂Q = (P − H [b]×) Rᵀ,    b = S⁻¹ w(Q_locᵀ P),
 
@@ -26,101 +27,127 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from gcms_fenicsx.dynamics.body import Body
-from gcms_fenicsx.dynamics.rotation import Polar, axial, polar, skew
+from gcms_fenicsx.dynamics.rotation import AXIAL_ROWS, SKEW_ROWS, Polar, axial, polar, skew
 
 E_CROSS = skew(np.eye(3))  # [e_k]× for k = x, y, z, stacked (3, 3, 3)
+#: A (nf, 3) times this is [A [e_k]×]_k laid out (nf, 3, 3) with k last (columns of Ĉ).
+CROSS_COLUMNS = E_CROSS.transpose(1, 2, 0).reshape(3, 9)
+#: A (nf, 3) times this is [a_f × e_l]_{f, l} laid out (nf, 3, 3): the row aᵀ [e_l]×.
+CROSS_ROWS = E_CROSS.transpose(1, 0, 2).reshape(3, 9)
+#: vec(Y) times this is vec(M_Yᵀ), M_Y ω = w([ω]× Y) (``local_frame_update``): column k of M_Y
+#: is w([e_k]× Y), linear in Y, so row (i, j) holds it for Y = e_i e_jᵀ.
+FRAME_RATE_ROWS = np.array([axial(E_CROSS @ Y.reshape(3, 3)).ravel() for Y in np.eye(9)])
+EYE3 = np.eye(3)
 
 
 class ElasticState(NamedTuple):
-    """Everything one evaluation of the co-rotated energy computed at q."""
+    """Everything one evaluation of the co-rotated energy computed at q; S⁻¹, the energy and
+    the gradient in global coordinates are formed only when asked for (the integrator works
+    with the gradient in the body frame)."""
 
     frame: Polar              # A = R U
-    rate_inv: np.ndarray      # S⁻¹ of the rotation rate
     local: np.ndarray         # Q_loc = Q R (nf, 3)
     local_force: np.ndarray   # P = Πᵀ mat(Kr e) (nf, 3)
     frame_term: np.ndarray    # b
-    force: np.ndarray         # ∂V/∂q (n,)
-    energy: float
+    local_gradient: np.ndarray  # Tᵀ ∂V/∂q = P − H [b]× (nf, 3)
+    deformation: np.ndarray   # e (n,)
+    stiffness_force: np.ndarray  # Πᵀ Kr e (n,), so eᵀ of it is eᵀ Kr e (Π e = e)
 
     @property
     def rotation(self) -> np.ndarray:
         return self.frame.rotation
 
+    @property
+    def force(self) -> np.ndarray:
+        """∂V/∂q = vec((P − H [b]×) Rᵀ) (n,)."""
+        return self.local_gradient.dot(self.frame.rotation.T).ravel()
+
+    @property
+    def rate_inv(self) -> np.ndarray:
+        """S⁻¹ of the rotation rate (``rotation.rotation_rate``)."""
+        return self.frame.rate_operator_inverse
+
+    @property
+    def energy(self) -> float:
+        """V = ½ eᵀ Kr e."""
+        return 0.5 * float(self.deformation.dot(self.stiffness_force))
+
 
 def elastic_state(body: Body, q: np.ndarray) -> ElasticState:
-    """V(q) and ∂V/∂q (module docstring)."""
+    """V(q) and ∂V/∂q (module docstring): Π and Πᵀ Kr as products with matrices formed once
+    (``Body.projections``), and the frame term by :func:`frame_force`. This is the
+    integrator's hot path: every residual of every Newton iteration calls it, so it makes as
+    few NumPy calls as the formulas allow (docs/integrator_profile.md)."""
+    pr = body.projections
     Q = q.reshape(-1, 3)
-    frame = polar(Q.T @ body.affine)
-    R = frame.rotation
-    S_inv = frame.rate_operator_inverse
-    local = Q @ R
-    e = without_translation(body, local - body.q0.reshape(-1, 3)).ravel()
-    p = body.stiffness @ e
-    P = translation_free_force(body, p.reshape(-1, 3))
-    b, force = frame_force(body, R, S_inv, local, P)
-    return ElasticState(frame, S_inv, local, P, b, force, 0.5 * float(e @ p))
+    frame = polar(Q.T.dot(body.affine))
+    local = Q.dot(frame.rotation)
+    e = (pr.deformation.dot(local) - pr.q0).ravel()                  # Π (Q R − Q0)
+    p = pr.stiffness.dot(e)                                          # Πᵀ Kr e
+    P = p.reshape(-1, 3)
+    b, gradient = frame_force(body, frame, local, P)
+    return ElasticState(frame, local, P, b, gradient, e, p)
 
 
-def frame_force(body: Body, R: np.ndarray, S_inv: np.ndarray, local: np.ndarray,
-                P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(b, f): the global generalized force f = vec((P − H [b]×) Rᵀ), b = S⁻¹ w(Q_locᵀ P), of
-    local forces P (nf × 3, already Πᵀ-projected) conjugate to e: f = (∂e/∂q)ᵀ vec(P)."""
-    b = S_inv @ axial(local.T @ P)
-    return b, ((P - body.affine @ skew(b)) @ R.T).ravel()
-
-
-def without_translation(body: Body, D: np.ndarray) -> np.ndarray:
-    """Π: D − k1 ⊗ (g1ᵀ D / m) for displacements D of shape (..., nf, 3); Π is linear."""
-    return D - body.unit[:, None] * (body.field_mass @ D / body.total_mass_kg)[..., None, :]
-
-
-def translation_free_force(body: Body, P: np.ndarray) -> np.ndarray:
-    """Πᵀ: P − g1 ⊗ (k1ᵀ P / m) for local forces P of shape (..., nf, 3)."""
-    return P - body.field_mass[:, None] * (body.unit @ P / body.total_mass_kg)[..., None, :]
+def frame_force(body: Body, frame: Polar, local: np.ndarray, P: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """(b, P − H [b]×), b = S⁻¹ w(Q_locᵀ P): for local forces P (nf × 3, already
+    Πᵀ-projected) conjugate to e, the generalized force (∂e/∂q)ᵀ vec(P) in the body frame,
+    T (P − H [b]×) being the global one (module docstring); w(Y) and H [b]× are products with
+    constant matrices (``rotation.AXIAL_ROWS``, ``Projections.affine_cross``)."""
+    b = frame.rate_solve(local.T.dot(P).ravel().dot(AXIAL_ROWS))
+    return b, P - b.dot(body.projections.affine_cross).reshape(-1, 3)
 
 
 def frame_update(body: Body, s: ElasticState,
                  apply_A: Callable[[np.ndarray], np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """(X, Y) with J_eᵀ A J_e + G = T A Tᵀ + X Y, rank 9, for a symmetric operator A that
-    annihilates translations (A = Kr gives the exact tangent ∂²V/∂q²).
+    annihilates translations (A = Kr gives the exact tangent ∂²V/∂q²): X = T X_loc and
+    Y = Y_loc Tᵀ from :func:`local_frame_update`."""
+    X_loc, Y_loc = local_frame_update(body, s, apply_A)
+    R = s.rotation
+    return (np.matmul(R, X_loc.reshape(-1, 3, X_loc.shape[1])).reshape(X_loc.shape),
+            np.matmul(R, Y_loc.T.reshape(-1, 3, len(Y_loc))).reshape(Y_loc.shape[::-1]).T)
 
-    J_e = ∂e/∂q = Π Tᵀ + Ĉ W_ω (T = I ⊗ R): a coordinate change dq turns the frame by
-    ω = W_ω dq = S⁻¹ w(Rᵀ dQᵀ H), which moves e by Ĉ ω, Ĉ = Π [vec(Q_loc [e_k]×)]_k. With
-    B = Πᵀ A Ĉ:  J_eᵀ A J_e = T A Tᵀ + T B W_ω + W_ωᵀ Bᵀ Tᵀ + W_ωᵀ (Ĉᵀ A Ĉ) W_ω.
-    G dq = d(J_eᵀ) p at fixed p (the geometric stiffness of the local forces P):
-    −(P − H [b]×) [ω]× Rᵀ − H [db]× Rᵀ with db = W_b dq,
 
-        db = S⁻¹ (P_f × r_l − w([ω]× Y) − (r_l · h_f) b + r_l (h_f · b) − ω × (U b))
+def local_frame_update(body: Body, s: ElasticState, apply_A: Callable[[np.ndarray], np.ndarray]
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """(X_loc, Y_loc) with J_eᵀ A J_e + G = T (A + X_loc Y_loc) Tᵀ (T = I ⊗ R): the rank-9
+    change-of-frame term in the body frame, where it depends only on the local state
+    (Q_loc, P, b, U, S⁻¹).
 
-    for dq = e_(f,l) (Y = Q_locᵀ P, r_l row l of R, h_f row f of H). So
-    X = [T B + U₃ | W_ωᵀ | U₂], Y = [W_ω ; (T B)ᵀ + (Ĉᵀ A Ĉ) W_ω ; W_b] with the columns
-    U₂[:, k] = −vec(H [e_k]× Rᵀ), U₃[:, k] = −vec((P − H [b]×) [e_k]× Rᵀ).
+    J_e = ∂e/∂q = Π Tᵀ + Ĉ W_ω: a coordinate change dq = T dq_l turns the frame by
+    ω = W_ω dq = S⁻¹ w(dQ_lᵀ H), which moves e by Ĉ ω, Ĉ = Π [vec(Q_loc [e_k]×)]_k. With
+    B = Πᵀ A Ĉ:  Tᵀ J_eᵀ A J_e T = A + B W + Wᵀ Bᵀ + Wᵀ (Ĉᵀ A Ĉ) W (W = W_ω T, rows
+    W[:, (f, a)] = S⁻¹ (h_f × e_a)). The geometric stiffness of the local forces P,
+    G dq = d(J_eᵀ) p at fixed p, is in the body frame −(P − H [b]×) [ω]× − H [db]× with
+    db = W_b dq_l,
+
+        db = S⁻¹ (P_f × e_a − w([ω]× Y) − h_fa b + e_a (h_f · b) − ω × (U b))
+
+    for dq_l = e_(f,a) (Y = Q_locᵀ P, h_f row f of H). So X_loc = [B + U₃ | Wᵀ | U₂],
+    Y_loc = [W ; Bᵀ + (Ĉᵀ A Ĉ) W ; W_b] with the columns U₂[:, k] = −vec(H [e_k]×),
+    U₃[:, k] = −vec((P − H [b]×) [e_k]×).
+
+    Every cross product over the fields is a product with a constant-size matrix: the row
+    aᵀ [c]× is a × c, so [a_f × e_l]_{f,l} = A · [[e_l]×]_l (nf × 9), and ω × c = ωᵀ [c]×.
     """
     nf = body.field_count
-    H, R, S_inv, local, P, b = (body.affine, s.rotation, s.rate_inv, s.local, s.local_force,
-                                s.frame_term)
-    U = s.frame.stretch
-    h_x_r = np.cross(H[:, None, :], R[None, :, :])                  # h_f × r_l  (nf, 3, 3)
-    W_omega = (h_x_r.reshape(-1, 3) @ S_inv.T).T                   # (3, n)
-    omega = W_omega.T.reshape(nf, 3, 3)
-    rot_local = local @ E_CROSS                                    # Q_loc [e_k]×  (3, nf, 3)
-    C_hat = without_translation(body, rot_local).reshape(3, -1).T  # (n, 3)
+    H, S_inv, local, P, b = body.affine, s.rate_inv, s.local, s.local_force, s.frame_term
+    R, values, Vt, _ = s.frame
+    pr = body.projections
+    omega = H.dot(E_CROSS.dot(S_inv.T).transpose(1, 0, 2).reshape(3, 9)).reshape(nf, 3, 3)
+    W_T = omega.reshape(-1, 3)                                      # Wᵀ (n, 3)
+    C_hat = pr.deformation.dot(local).dot(CROSS_COLUMNS).reshape(-1, 3)  # Π Q_loc [e_k]×
     AC = np.asarray(apply_A(C_hat))
-    B = translation_free_force(body, AC.T.reshape(3, nf, 3))       # Πᵀ A Ĉ  (3, nf, 3)
-    TB = (B @ R.T).reshape(3, -1).T                                 # (n, 3)
-    CAC = C_hat.T @ AC
-    Y_lp = local.T @ P
-    M_Y = axial(E_CROSS @ Y_lp).T                                  # w([ω]× Y) = M_Y ω
-    hr = H @ R.T                                                    # h_f · r_l  (nf, 3)
-    db = (np.cross(P[:, None, :], R[None, :, :]) - omega @ M_Y.T
-          - hr[:, :, None] * b + R[None, :, :] * (H @ b)[:, None, None]
-          - np.cross(omega, U @ b))
-    W_b = (db.reshape(-1, 3) @ S_inv.T).T                           # (3, n)
-    frame = P - H @ skew(b)
-    U2 = -(H @ E_CROSS @ R.T).reshape(3, -1).T
-    U3 = -(frame @ E_CROSS @ R.T).reshape(3, -1).T
-    X = np.hstack([TB + U3, W_omega.T, U2])
-    Y = np.vstack([W_omega, TB.T + CAC @ W_omega, W_b])
+    B = pr.force.dot(AC.reshape(nf, 9)).reshape(-1, 3)              # Πᵀ A Ĉ (n, 3)
+    M_Y_T = local.T.dot(P).ravel().dot(FRAME_RATE_ROWS).reshape(3, 3)   # w([ω]× Y) = M_Y ω
+    Ub = Vt.T.dot(values * Vt.dot(b))                               # U b, U = V Σ Vᵀ
+    db = (P.dot(CROSS_ROWS).reshape(nf, 3, 3) - omega.dot(M_Y_T + Ub.dot(SKEW_ROWS).reshape(3, 3))
+          - H[:, :, None] * b + EYE3 * H.dot(b)[:, None, None])
+    U3 = -s.local_gradient.dot(CROSS_COLUMNS).reshape(-1, 3)      # −(P − H [b]×) [e_k]×
+    X = np.concatenate((B + U3, W_T, -pr.affine_cross.T), axis=1)   # U₂ = −[vec(H [e_k]×)]_k
+    Y = np.concatenate((W_T.T, B.T + C_hat.T.dot(AC).dot(W_T.T), S_inv.dot(db.reshape(-1, 3).T)))
     return X, Y
 
 

@@ -3,7 +3,8 @@
 
 The dissipation function is ½ ėᵀ D₀ ė with D₀ = α Mr + β Kr and ė = Π d/dt vec(Q R) the
 deformation rate seen in the body frame, so rigid motion is not damped; the force is
-f_d = (∂e/∂q)ᵀ D₀ ė (``corotated.frame_force``) and its power ėᵀ D₀ ė. A Newton correction
+f_d = (∂e/∂q)ᵀ D₀ ė (``corotated.frame_force``) and its power ėᵀ D₀ ė (:class:`DampingForce`,
+with (Πᵀ ⊗ I3) D₀ formed once per run). A Newton correction
 Δq changes q̇ by γ'Δq, so the damping adds γ' D₀ to the iteration matrix:
 S₀ = β' Mr + γ' D₀ + Kr, and the change-of-frame term applies A = γ' D₀ + Kr.
 NumPy only.
@@ -15,10 +16,9 @@ from typing import Any, Callable
 
 import numpy as np
 
-from gcms_fenicsx.dynamics.body import Body
-from gcms_fenicsx.dynamics.corotated import (ElasticState, frame_force,
-                                             translation_free_force, without_translation)
-from gcms_fenicsx.dynamics.rotation import rotation_rate, skew
+from gcms_fenicsx.dynamics.body import Body, projected
+from gcms_fenicsx.dynamics.corotated import ElasticState, frame_force
+from gcms_fenicsx.dynamics.rotation import AXIAL_ROWS, SKEW_ROWS
 
 
 @dataclass(frozen=True)
@@ -32,15 +32,10 @@ class RayleighDamping:
     def active(self) -> bool:
         return (self.alpha, self.beta) != (0.0, 0.0)
 
-    def force(self, body: Body, v: np.ndarray, es: ElasticState) -> tuple[np.ndarray, float]:
-        """(f_d, ėᵀ D₀ ė) at the velocity v and the elastic state ``es`` (module docstring)."""
-        Vd = v.reshape(-1, 3)
-        omega = rotation_rate(es.rotation, es.rate_inv, Vd.T @ body.affine)
-        rate = without_translation(body, Vd @ es.rotation + es.local @ skew(omega)).ravel()
-        p = self.alpha * (body.mass @ rate) + self.beta * (body.stiffness @ rate)
-        P = translation_free_force(body, p.reshape(-1, 3))
-        _, force = frame_force(body, es.rotation, es.rate_inv, es.local, P)
-        return force, float(rate @ p)
+    def on(self, body: Body) -> DampingForce:
+        """The damping force on ``body``."""
+        return DampingForce(body, projected(body.projections.force,
+                                            self.alpha * body.mass + self.beta * body.stiffness))
 
     def iteration_matrix(self, body: Body, beta_p: float, gamma_p: float) -> Any:
         """S₀ = β' Mr + γ' D₀ + Kr = (β' + γ'α) Mr + (1 + γ'β) Kr."""
@@ -57,3 +52,28 @@ class RayleighDamping:
             return out + mass * (body.mass @ X) if self.alpha else out
 
         return apply
+
+
+@dataclass(frozen=True)
+class DampingForce:
+    """f_d on one body (module docstring), with (Πᵀ ⊗ I3) D₀ formed once (``body.projected``)."""
+
+    body: Body
+    operator: Any   # (Πᵀ ⊗ I3)(α Mr + β Kr), for ``dot`` with vectors
+
+    def local_force(self, v: np.ndarray, es: ElasticState) -> tuple[np.ndarray, float]:
+        """(Tᵀ f_d as (nf, 3), ėᵀ D₀ ė) at the velocity v and the elastic state ``es``.
+
+        ė = Π vec(Q̇ R + Q_loc [ω]×) with ω = S⁻¹ w(Rᵀ Q̇ᵀ H) (``rotation.rotation_rate``);
+        P = mat((Πᵀ ⊗ I3) D₀ ė) and f_d follows from P as the elastic force does from
+        Πᵀ Kr e (``corotated.frame_force``); ėᵀ D₀ ė = ėᵀ P since Π ė = ė.
+        """
+        body, frame, local = self.body, es.frame, es.local
+        Vd = v.reshape(-1, 3)
+        R = frame.rotation
+        omega = frame.rate_solve(R.T.dot(Vd.T.dot(body.affine)).ravel().dot(AXIAL_ROWS))
+        rate = body.projections.deformation.dot(
+            Vd.dot(R) + local.dot(omega.dot(SKEW_ROWS).reshape(3, 3))).ravel()
+        p = self.operator.dot(rate)
+        _, force = frame_force(body, frame, local, p.reshape(-1, 3))
+        return force, float(rate.dot(p))

@@ -28,7 +28,7 @@ EPS = float(np.finfo(float).eps)
 
 
 def dense_factorization(A: np.ndarray) -> Solve:
-    """x = A⁻¹ b by one mat-vec with the explicit inverse (A small and dense).
+    """x = A⁻¹ b by one mat-vec with the explicit inverse (A small and dense): its bound ``dot``.
 
     Raises :class:`SingularMatrixError` if A is singular or so ill-conditioned that A A⁻¹ is
     not I to ``INVERSE_DEFECT_LIMIT``; the caller knows what A is and says why
@@ -42,7 +42,7 @@ def dense_factorization(A: np.ndarray) -> Solve:
     defect = np.abs(A @ inv - np.eye(len(A))).max()
     if not defect < INVERSE_DEFECT_LIMIT:
         raise SingularMatrixError(defect, np.linalg.cond(A))
-    return lambda b: inv @ b
+    return inv.dot
 
 
 def mass_factorization(body: Body, factorize: Factorize) -> Solve:

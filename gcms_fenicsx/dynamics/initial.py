@@ -148,11 +148,12 @@ def consistent_state(body: Body, constraints: Constraints, forces: ExternalForce
     U = c.directions_at(t)
     es = elastic(q)
     f_ext = forces(t)
-    f = f_ext - es.force
+    gradient = es.local_gradient
     dissipation = 0.0
     if damping.active:
-        fd, dissipation = damping.force(body, v, es)
-        f = f - fd
+        fd, dissipation = damping.on(body).local_force(v, es)
+        gradient = gradient + fd
+    f = f_ext - gradient.dot(es.rotation.T).ravel()
     lam = np.zeros(c.count)
     if c.count:
         C = c.jacobian(U)
@@ -161,5 +162,5 @@ def consistent_state(body: Body, constraints: Constraints, forces: ExternalForce
         lam = np.linalg.solve(C @ MinvCt, C @ mass_solve(f) - rhs)
         f = f - C.T @ lam
     acc = mass_solve(f)
-    state = State(t=t, q=q.copy(), v=v.copy(), acc=acc, a=acc.copy(), lam=lam)
-    return state, StepInfo(es, dissipation, U, 0, f_ext)
+    state = State.of(t, q, v, acc, acc, lam)
+    return state, StepInfo(es, dissipation, U, 0, f_ext, c.jacobian(U) if c.count else None)

@@ -33,16 +33,19 @@ linear one; co-rotated damping is not combined with another elastic law.
 """
 from __future__ import annotations
 
+import math
+from functools import partial
+
 import numpy as np
 
-from gcms_fenicsx.dynamics.alpha import AlphaParameters, newton_coefficients
+from gcms_fenicsx.dynamics.alpha import AlphaParameters, newton_coefficients, step_matrices
 from gcms_fenicsx.dynamics.body import Body
-from gcms_fenicsx.dynamics.corotated import ElasticState, elastic_state
+from gcms_fenicsx.dynamics.corotated import elastic_state
 from gcms_fenicsx.dynamics.damping import RayleighDamping
 from gcms_fenicsx.dynamics.errors import IntegrationError, SingularMatrixError
 from gcms_fenicsx.dynamics.factorization import (Factorize, Solve, dense_factorization,
                                                  singular_iteration_matrix)
-from gcms_fenicsx.dynamics.jacobian import UPGRADE_RATE, JacobianPolicy, Linearisation
+from gcms_fenicsx.dynamics.jacobian import UPGRADE_RATE, JacobianPolicy
 from gcms_fenicsx.dynamics.joints import Constraints
 from gcms_fenicsx.dynamics.kkt import AssembledKKT, BorderedKKT
 from gcms_fenicsx.dynamics.loads import ExternalForces
@@ -52,14 +55,20 @@ from gcms_fenicsx.dynamics.state import Elastic, State, StepInfo
 
 
 class GeneralizedAlpha:
-    """The stepper: constant step h, the body's forces, joints and Newton settings."""
+    """The stepper: constant step h, the body's forces, joints and Newton settings.
+
+    Everything that does not change during a run is prepared here (the generalized-α
+    coefficients as small matrices acting on the stacked state, S₀⁻¹, the constraint matrix
+    when no drive turns it); a step makes the few NumPy calls its formulas need
+    (docs/integrator_profile.md counts them).
+    """
 
     def __init__(self, body: Body, constraints: Constraints, forces: ExternalForces,
                  time_step_s: float, rho_inf: float, damping: RayleighDamping,
                  solver: Solver, factorize: Factorize = dense_factorization,
                  elastic: Elastic | None = None) -> None:
         self.body, self.constraints, self.forces = body, constraints, forces
-        self.elastic = elastic or (lambda q: elastic_state(body, q))
+        self.elastic = elastic or partial(elastic_state, body)
         corotated = elastic is None
         if not corotated and (solver.jacobian != "rotated" or damping.active):
             raise ValueError("another elastic model than the co-rotated one runs with "
@@ -73,6 +82,13 @@ class GeneralizedAlpha:
         self.solver = solver
         self.tolerance_m = solver.tolerance * body.size_m
         self.policy = JacobianPolicy(solver.jacobian, corotated)
+        self.predictor, self.update = step_matrices(self.p, time_step_s)
+        m = constraints.count
+        C = constraints.jacobian(constraints.directions) if m else None
+        #: (U, C, Cᵀ) when no drive turns the rows (None: computed at every step's time)
+        self.rows = (None if constraints.drives else
+                     (constraints.directions, C, C.T if m else None))
+        self.damping_force = damping.on(body) if damping.active else None
         S0 = damping.iteration_matrix(body, self.beta_p, self.gamma_p)
         apply_A = damping.frame_operator(body, self.gamma_p)
         if solver.jacobian == "assembled":
@@ -90,19 +106,6 @@ class GeneralizedAlpha:
             raise singular_iteration_matrix(self.body, self.p, self.h, self.damping, factorize,
                                             exc) from exc
 
-    def residual(self, f_ext: np.ndarray, q: np.ndarray, v: np.ndarray, acc: np.ndarray,
-                 lam: np.ndarray, U: np.ndarray) -> tuple[np.ndarray, ElasticState, float]:
-        """r = Mr q̈ + f_d + ∂V/∂q − f_ext + Cᵀλ, the elastic state and the damping's power."""
-        es = self.elastic(q)
-        r = self.body.mass @ acc + es.force - f_ext
-        dissipation = 0.0
-        if self.damping.active:
-            fd, dissipation = self.damping.force(self.body, v, es)
-            r += fd
-        if self.constraints.count:
-            r += self.constraints.transpose_times(lam, U)
-        return r, es, dissipation
-
     def step(self, s: State) -> tuple[State, StepInfo]:
         """Advance one step h by Newton (module docstring); IntegrationError if it fails.
 
@@ -110,61 +113,72 @@ class GeneralizedAlpha:
         tolerance, or when the error left after it, estimated from the observed contraction
         ρ = δ_k / δ_{k−1} as δ_k ρ / (1 − ρ), is. An iterate whose affine map has no rotation
         (``rotation.polar``) ends the step as Newton divergence, with its increments.
+
+        The state's rows move together: the predictor is one product with Z = [q; q̇; q̈; a]
+        and a correction Δq adds u Δq to all four (``alpha.step_matrices``).
         """
-        p, h = self.p, self.h
-        t1 = s.t + h
-        acc = s.acc.copy()                       # predictor: q̈_{n+1} = q̈_n
-        a1 = (p.alpha_f * s.acc - p.alpha_m * s.a + (1.0 - p.alpha_f) * acc) / (1.0 - p.alpha_m)
-        v = s.v + h * ((1.0 - p.gamma) * s.a + p.gamma * a1)
-        q = s.q + h * s.v + h * h * ((0.5 - p.beta) * s.a + p.beta * a1)
+        t1 = s.t + self.h
+        Z = self.predictor.dot(s.Z)                  # predicted Z_{n+1} (q̈_{n+1} = q̈_n)
+        q, v, acc = Z[0], Z[1], Z[2]
         lam = s.lam.copy()
-        c = self.constraints
-        U = c.directions_at(t1)
+        c, linear, elastic = self.constraints, self.linear, self.elastic
+        damping = self.damping_force
+        U, C, CT = self.rows or self._rows_at(t1)
+        constrained = C is not None
         f_ext = self.forces(t1)
-        previous = np.inf
+        tol, mass, total_mass, update = (self.tolerance_m, self.body.mass_product,
+                                         self.body.total_mass_kg, self.update)
+        targets, sqrt, inf = c.targets, math.sqrt, math.inf
+        g = lam[:0]
+        dissipation = 0.0
+        previous = inf
         increments: list[float] = []
         lin = self.policy.start_step()
         for iteration in range(1, self.solver.max_iterations + 1):
             try:
-                r, es, dissipation = self.residual(f_ext, q, v, acc, lam, U)
+                es = elastic(q)
             except InvertedBodyError as exc:
                 raise self._divergence(t1, iteration, increments, exc) from exc
-            g = c.residual(q, U)
-            lin, dq, dlam, delta = self._correction(lin, iteration, previous, es, U, r, g)
-            if not delta < np.inf:
+            y = mass.dot(acc)                        # Mr q̈ + f_d − f_ext + Cᵀλ
+            y -= f_ext
+            gradient = es.local_gradient                 # Tᵀ(∂V/∂q + f_d), body frame
+            if damping is not None:
+                fd, dissipation = damping.local_force(v, es)
+                gradient = gradient + fd
+            if constrained:
+                y += CT.dot(lam)
+                g = C.dot(q) - targets
+            if iteration == 1 or lin.every_iteration:
+                linear.prepare(es, U, C, lin.exact,
+                               relinearise=lin.relinearise or lin.every_iteration)
+            r = _in_frame(y, gradient, es.rotation, linear.R)
+            dq, dlam = linear.solve(r, g)
+            delta = sqrt(abs(dq.dot(mass.dot(dq))) / total_mass)
+            if not lin.every_iteration and delta > UPGRADE_RATE * previous:
+                lin = self.policy.upgrade(lin)
+                linear.prepare(es, U, C, lin.exact)
+                r = _in_frame(y, gradient, es.rotation, linear.R)
+                dq, dlam = linear.solve(r, g)
+                delta = sqrt(abs(dq.dot(mass.dot(dq))) / total_mass)
+            if not delta < inf:
                 raise IntegrationError(f"the state is no longer finite at t = {t1:.6g} s "
                                        f"(Newton iteration {iteration})", t1)
-            q += dq
-            v += self.gamma_p * dq
-            acc += self.beta_p * dq
+            Z += update * dq
             lam += dlam
             increments.append(delta)
-            if delta <= self.tolerance_m or \
-                    delta * delta <= self.tolerance_m * (previous - delta) < np.inf:
+            if delta <= tol or delta * delta <= tol * (previous - delta) < inf:
                 break
             previous = delta
         else:
             raise self._no_convergence(t1, iteration, delta, r, g)
-        a1 = a1 + (1.0 - p.alpha_f) / (1.0 - p.alpha_m) * (acc - s.acc)
-        return (State(t=t1, q=q, v=v, acc=acc, a=a1, lam=lam),
-                StepInfo(es, dissipation, U, iteration, f_ext))
+        return State(t1, Z, lam), StepInfo(es, dissipation, U, iteration, f_ext, C)
 
-    def _correction(self, lin: Linearisation, iteration: int, previous: float,
-                    es: ElasticState, U: np.ndarray, r: np.ndarray, g: np.ndarray
-                    ) -> tuple[Linearisation, np.ndarray, np.ndarray, float]:
-        """The Newton correction of one iteration, linearised as the policy says; a correction
-        that does not shrink by UPGRADE_RATE is recomputed with full Newton (``jacobian``)."""
-        if iteration == 1 or lin.every_iteration:
-            self.linear.prepare(es, U, lin.exact,
-                                relinearise=lin.relinearise or lin.every_iteration)
-        dq, dlam = self.linear.solve(r, g)
-        delta = self._norm(dq)
-        if not lin.every_iteration and delta > UPGRADE_RATE * previous:
-            lin = self.policy.upgrade(lin)
-            self.linear.prepare(es, U, lin.exact)
-            dq, dlam = self.linear.solve(r, g)
-            delta = self._norm(dq)
-        return lin, dq, dlam, delta
+    def _rows_at(self, t: float) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """(U, C, Cᵀ) at time t, for joints whose rows a drive turns."""
+        c = self.constraints
+        U = c.directions_at(t)
+        C = c.jacobian(U) if c.count else None
+        return U, C, (C.T if C is not None else None)
 
     def _no_convergence(self, t1: float, iteration: int, delta: float, r: np.ndarray,
                         g: np.ndarray) -> IntegrationError:
@@ -191,6 +205,15 @@ class GeneralizedAlpha:
             f"affine map has {exc.numbers}, after {more}increments {shown} m (tolerance "
             f"{self.tolerance_m:.1e} m); {remedy} or the loads", t1)
 
-    def _norm(self, dq: np.ndarray) -> float:
-        """The mass-weighted RMS size of a correction, √(Δqᵀ Mr Δq / m) (metres)."""
-        return float(np.sqrt(abs(dq @ (self.body.mass @ dq)) / self.body.total_mass_kg))
+
+def _in_frame(y: np.ndarray, gradient: np.ndarray, R_state: np.ndarray, R: np.ndarray
+              ) -> np.ndarray:
+    """r_l = Tᵀ(y + f) with T = I ⊗ R, the residual in the frame the Newton matrix is
+    linearised in, from forces f given in the state's own frame R_state (``gradient``, nf × 3):
+    where the two frames are one, as in the first iteration, f is never turned."""
+    r = y.reshape(-1, 3).dot(R)
+    if R_state is R:
+        r += gradient
+    else:
+        r += gradient.dot(R_state.T.dot(R))
+    return r.ravel()

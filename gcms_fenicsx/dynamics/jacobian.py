@@ -16,7 +16,7 @@ a large, fast change of frame converges quadratically instead of slowly or not a
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 #: A Newton correction that does not shrink by this factor switches the rest of the step to
 #: full Newton (with the rank-9 term). A re-linearisation costs about three iterations, so
@@ -28,13 +28,17 @@ UPGRADE_RATE = 0.6
 LOCAL_REUSE_STEPS = 10
 
 
-@dataclass(frozen=True)
-class Linearisation:
+class Linearisation(NamedTuple):
     """How one step's Newton matrix is formed."""
 
     exact: bool            # with the rank-9 change-of-frame term
     relinearise: bool      # the kept rank-9 term recomputed at this step's state
     every_iteration: bool  # re-linearised at every iterate (full Newton)
+
+
+#: Every linearisation, made once: a step picks one instead of building it.
+_LINEARISATIONS = {(e, r, i): Linearisation(e, r, i)
+                   for e in (False, True) for r in (False, True) for i in (False, True)}
 
 
 class JacobianPolicy:
@@ -50,16 +54,14 @@ class JacobianPolicy:
     def start_step(self) -> Linearisation:
         """The linearisation a new step starts with."""
         if self.mode == "assembled":
-            return Linearisation(exact=True, relinearise=True, every_iteration=True)
+            return _LINEARISATIONS[True, True, True]
         relinearise = self.mode == "exact" or self.kept_steps >= LOCAL_REUSE_STEPS
         self.kept_steps = 0 if relinearise else self.kept_steps + 1
-        return Linearisation(exact=self.mode != "rotated" or self.frame_terms,
-                             relinearise=relinearise, every_iteration=False)
+        return _LINEARISATIONS[self.mode != "rotated" or self.frame_terms, relinearise, False]
 
     def upgrade(self, current: Linearisation) -> Linearisation:
         """Full Newton for the rest of a slow step; a "rotated" run keeps the rank-9 term for
         the steps that follow."""
         self.frame_terms = self.frame_terms or self.corotated
         self.kept_steps = 0
-        return Linearisation(exact=current.exact or self.corotated, relinearise=True,
-                             every_iteration=True)
+        return _LINEARISATIONS[current.exact or self.corotated, True, True]

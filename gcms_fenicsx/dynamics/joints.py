@@ -33,14 +33,14 @@ prescribes, which is a contradiction (SceneError naming both).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
-from functools import partial
+from functools import cached_property, partial
 from typing import Any, Callable
 
 import numpy as np
 
 from gcms_fenicsx.dynamics.body import Body
-from gcms_fenicsx.dynamics.rotation import rotation_about
 from gcms_fenicsx.dynamics.scene import Drive, Joint, SceneError
 
 #: A rotation constraint about c needs a group direction d ⊥ c with at least this length
@@ -86,21 +86,36 @@ class Constraints:
     def count(self) -> int:
         return len(self.index)
 
+    @cached_property
+    def _turning(self) -> tuple[tuple[int, Drive, np.ndarray, np.ndarray, np.ndarray], ...]:
+        """(row, drive, u, e × u, e (e · u)) of every driven row, u at θ = 0."""
+        return tuple((i, drive, u, np.cross(axis, u), axis * float(axis @ u))
+                     for i, (drive, axis) in self.drives.items()
+                     for u in (self.directions[i],))
+
     def directions_at(self, t: float, derivative: int = 0) -> np.ndarray:
-        """u_i(t) (m, 3), or its first or second time derivative."""
+        """u_i(t) (m, 3), or its first or second time derivative.
+
+        A driven row turns about e as u(t) = R_e(θ) u = cos θ u + sin θ (e × u) + (1 − cos θ)
+        e (e · u) (Rodrigues), so u̇ = θ̇ e × u(t) and ü = θ̈ e × u(t) + θ̇² (e (e · u) − u(t)),
+        with e × u(t) = cos θ (e × u) + sin θ (e (e · u) − u).
+        """
         U = self.directions if derivative == 0 else np.zeros_like(self.directions)
         if not self.drives:
             return U
         U = U.copy()
-        for i, (drive, axis) in self.drives.items():
+        for i, drive, u, e_u, along in self._turning:
             theta, rate, accel = drive.angle(t)
-            u = rotation_about(axis, theta) @ self.directions[i]
+            c, s = math.cos(theta), math.sin(theta)
             if derivative == 0:
-                U[i] = u
-            elif derivative == 1:
-                U[i] = rate * np.cross(axis, u)
-            else:  # d²/dt² R_e(θ) u = θ̈ e × u + θ̇² e × (e × u), and e × (e × u) = −u (u ⊥ e)
-                U[i] = accel * np.cross(axis, u) - rate ** 2 * u
+                U[i] = c * u + s * e_u + (1.0 - c) * along
+                continue
+            turned_e_u = c * e_u + s * (along - u)
+            if derivative == 1:
+                U[i] = rate * turned_e_u
+            else:
+                U[i] = accel * turned_e_u + rate * rate * (along - (c * u + s * e_u
+                                                                    + (1.0 - c) * along))
         return U
 
     def values(self, q: np.ndarray, U: np.ndarray) -> np.ndarray:
@@ -121,7 +136,8 @@ class Constraints:
 
     def jacobian(self, U: np.ndarray) -> np.ndarray:
         """C (m × n), dense: row i is kron(v_{k_i}, u_i)."""
-        return (self.row_vectors[:, :, None] * U[:, None, :]).reshape(self.count, -1)
+        return (self.row_vectors[:, :, None] * U[:, None, :]).reshape(self.count,
+                                                                      3 * self.vectors.shape[1])
 
 
 def _frame(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

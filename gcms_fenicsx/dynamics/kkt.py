@@ -5,7 +5,8 @@ factorised once per run; the constraints and X Y enter by the Woodbury identity 
 solved once per step (docs/design.md §6). :class:`AssembledKKT` (the benchmarks' baseline,
 ``[scene.solver] jacobian = "assembled"``): the same exact S assembled densely and
 LU-factorised at every iteration — textbook Newton. Both have ``prepare`` (fix the
-linearisation) and ``solve`` (a correction for residuals r, g). NumPy only.
+linearisation and its frame R) and ``solve`` (a correction for the residuals r_l = Tᵀ r in
+that frame and g). NumPy only.
 """
 from __future__ import annotations
 
@@ -14,103 +15,106 @@ from typing import Any, Callable
 import numpy as np
 
 from gcms_fenicsx.dynamics.body import Body
-from gcms_fenicsx.dynamics.corotated import frame_update
+from gcms_fenicsx.dynamics.corotated import frame_update, local_frame_update
 from gcms_fenicsx.dynamics.joints import Constraints
+from gcms_fenicsx.dynamics.lapack import dot_into, inverse
 
 Solve = Callable[[np.ndarray], np.ndarray]
 
 
-def rotate(R: np.ndarray, X: np.ndarray) -> np.ndarray:
-    """T X = vec(X_f R ᵀ) for the columns of X (n,) or (n, k): each field's 3-vector turned by R."""
-    k = X.shape[1:]
-    return (R @ X.reshape((-1, 3) + k)).reshape(X.shape) if k else (X.reshape(-1, 3) @ R.T).ravel()
-
-
 class BorderedKKT:
-    """Newton corrections for S = T S₀ Tᵀ (+ X Y) bordered by the constraints.
+    """Newton corrections for S = T S₀ Tᵀ (+ X Y) bordered by the constraints, in the body frame.
 
-    With z = S_T⁻¹ r (S_T = T S₀ Tᵀ, so S_T⁻¹ = T S₀⁻¹ Tᵀ) and the border columns
-    B = S_T⁻¹ [Cᵀ | X]:
+    With T = I ⊗ R fixed for the step, Δq = T Δq_l, r_l = Tᵀ r, C_l = C T (rows
+    kron(v_i, Rᵀu_i)), X = T X_loc and Y = Y_loc Tᵀ, the system is
+    [S₀ + X_loc Y_loc, C_lᵀ; C_l, 0] [Δq_l; Δλ] = −[r_l; g]. With z = S₀⁻¹ r_l, the border
+    B = S₀⁻¹ [C_lᵀ | X_loc] and G = [C_l; Y_loc] (Woodbury):
 
-        [C S_T⁻¹ Cᵀ   C S_T⁻¹ X    ] [Δλ]   [g − C z]
-        [Y S_T⁻¹ Cᵀ   I + Y S_T⁻¹ X] [y ] = [−Y z   ],    Δq = −(z + B [Δλ; y])
+        (G B + [0 0; 0 I]) [Δλ; y] = [g; 0] − G z,    Δq_l = −(z + B [Δλ; y]).
 
-    is the Woodbury form of [S Cᵀ; C 0] [Δq; Δλ] = −[r; g] (y = Y Δq). For rows
-    kron(v_k, u_i), S_T⁻¹ c_i = T Y_k Rᵀu_i with Y_k = S₀⁻¹ [kron(v_k, e_l)]_l solved once,
-    and C S_T⁻¹ Cᵀ = [(Rᵀu_i)ᵀ Γ_{k_i k_j} (Rᵀu_j)] with Γ_kl = kron(v_k, I)ᵀ Y_l.
+    For rows kron(v_k, u_i), S₀⁻¹ c_i = Y_k Rᵀu_i with Y_k = S₀⁻¹ [kron(v_k, e_l)]_l solved
+    once per run. Per iteration (r_l comes turned, ``integrator``): one solve with S₀, three
+    small products and Δq turned back; per step: Bᵀ's and G's constraint rows (one product
+    each, written in place), the (m + 9)-square capacitance matrix G B + [0 0; 0 I] (one
+    product) and its inverse. Bᵀ, G and the rest are allocated once for each kind of step
+    (with the rank-9 term or without).
     """
 
     def __init__(self, body: Body, constraints: Constraints, solve: Solve,
                  apply_A: Callable[[np.ndarray], np.ndarray]) -> None:
         self.body, self.c, self.solve0, self.apply_A = body, constraints, solve, apply_A
-        self.local: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-        m = constraints.count
+        self.kept = False       # the rank-9 term's rows hold a linearisation
+        m = self.m = constraints.count
+        n = body.dofs
         if m:
             nv = len(constraints.vectors)
-            basis = np.zeros((body.dofs, nv, 3))
+            basis = np.zeros((n, nv, 3))
             for l in range(3):
                 basis.reshape(body.field_count, 3, nv, 3)[:, l, :, l] = constraints.vectors.T
-            Y = np.asarray(solve(basis.reshape(body.dofs, 3 * nv))).reshape(body.dofs, nv, 3)
-            gamma = np.einsum("nka,nlb->kalb", basis, Y)
-            idx = constraints.index
-            self.Y = Y[:, idx, :].reshape(body.dofs, 3 * m)            # columns (i, a)
-            self.gamma = gamma[idx][:, :, idx, :].reshape(3 * m, 3 * m)
-            self.blocks = np.zeros((3 * m, m))                         # block-diagonal Rᵀu_i
-            self.block_index = (np.arange(3 * m), np.repeat(np.arange(m), 3))
+            Y = np.asarray(solve(basis.reshape(n, 3 * nv))).reshape(n, nv, 3)
+            self.YT = np.ascontiguousarray(Y[:, constraints.index, :].reshape(n, 3 * m).T)
+            self.blocks = np.zeros((m, 3 * m))                   # row i: Rᵀu_i at columns 3i..
+            self.diagonal = np.lib.stride_tricks.as_strided(
+                self.blocks, shape=(m, 3), strides=((3 * m + 3) * 8, 8))
+        self.kinds = {exact: _border(n, m + 9 * exact, m) for exact in (False, True)}
+        self.BT: np.ndarray | None = None
 
-    def prepare(self, es: Any, U: np.ndarray, exact: bool,
+    def prepare(self, es: Any, U: np.ndarray, C: np.ndarray | None, exact: bool,
                 relinearise: bool = True) -> None:
-        """Fix R, the constraint directions U and (``exact``) the rank-9 term for the step.
+        """Fix R, the constraint directions U and rows C (m × n, None without constraints)
+        and (``exact``) the rank-9 term for the step.
 
         ``es``: the elastic state; without ``exact`` only its rotation is read, so another
         elastic model's state serves (it carries the same frame R = polar(A(q))).
 
-        The rank-9 term is kept in the body frame, X = T X_loc, Y = Y_loc Tᵀ: X_loc and Y_loc
-        depend only on the local state (Q_loc, P, U, b), so S₀⁻¹ X_loc and the capacitance
-        I + Y S_T⁻¹ X = I + Y_loc S₀⁻¹ X_loc can serve later steps, only turned with the new
-        R. ``relinearise`` (or nothing kept yet) recomputes them at ``es``.
+        The rank-9 term is kept in the body frame: X_loc and Y_loc depend only on the local
+        state (Q_loc, P, U, b), so S₀⁻¹ X_loc and Y_loc serve later steps as they are.
+        ``relinearise`` (or nothing kept yet) recomputes them at ``es``.
         """
-        R, m = es.rotation, self.c.count
-        self.R, self.U = R, U
-        borders = []
+        R, m = es.rotation, self.m
+        self.R, self.back = R, -R.T
+        if exact and (relinearise or not self.kept):
+            self._relinearise(es)
+        if not m and not exact:
+            self.BT = None
+            return
+        BT, G, minus_pad, BT_rows, G_rows = self.kinds[exact]
         if m:
-            B = self.blocks
-            B[self.block_index] = (U @ R).ravel()                     # Rᵀ u_i
-            borders.append(rotate(R, self.Y @ B))                    # S_T⁻¹ Cᵀ
-            matrix = B.T @ (self.gamma @ B)
-        if exact:
-            if relinearise or self.local is None:
-                X, Y = frame_update(self.body, es, self.apply_A)
-                X_loc, Y_loc = rotate(R.T, X), rotate(R.T, Y.T).T
-                SX_loc = np.asarray(self.solve0(X_loc))
-                self.local = (Y_loc, SX_loc, np.eye(X.shape[1]) + Y_loc @ SX_loc)
-            Y_loc, SX_loc, inner = self.local
-            self.Yrows = rotate(R, Y_loc.T).T                          # Y = Y_loc Tᵀ
-            SX = rotate(R, SX_loc)                                     # S_T⁻¹ X
-            if m:
-                schur, matrix = matrix, np.empty((m + len(inner), m + len(inner)))
-                matrix[:m, :m] = schur
-                matrix[:m, m:] = self.c.values(SX, U)               # C S_T⁻¹ X
-                matrix[m:, :m] = self.Yrows @ borders[0]            # Y S_T⁻¹ Cᵀ
-                matrix[m:, m:] = inner
-            else:
-                matrix = inner
-            borders.append(SX)
-        self.exact = exact
-        self.border = np.hstack(borders) if borders else None
-        self.inverse = np.linalg.inv(matrix) if borders else None
+            self.diagonal[...] = U.dot(R)                                 # Rᵀu_i
+            dot_into(self.blocks, self.YT, BT_rows)                       # (S₀⁻¹ C_lᵀ)ᵀ
+            dot_into(C.reshape(-1, 3), R, G_rows)                         # C_l = C T
+        self.BT, self.G = BT, G
+        self.minus_inverse = inverse(minus_pad - G.dot(BT.T))           # −(G B + [0 0; 0 I])⁻¹
 
-    def solve(self, r: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(Δq, Δλ) for the residuals r, g with what :meth:`prepare` fixed."""
-        R, m = self.R, self.c.count
-        z = rotate(R, np.asarray(self.solve0(rotate(R.T, r))))
-        if self.border is None:
-            return -z, g[:0]
-        rhs = g - self.c.values(z, self.U)
-        if self.exact:
-            rhs = np.concatenate([rhs, -(self.Yrows @ z)])
-        sol = self.inverse @ rhs
-        return -(z + self.border @ sol), sol[:m]
+    def _relinearise(self, es: Any) -> None:
+        """X_loc, Y_loc of the rank-9 term at ``es``: (S₀⁻¹ X_loc)ᵀ into Bᵀ, Y_loc into G."""
+        X_loc, Y_loc = local_frame_update(self.body, es, self.apply_A)
+        BT, G = self.kinds[True][:2]
+        BT[self.m:] = self.solve0(X_loc).T
+        G[self.m:] = Y_loc
+        self.kept = True
+
+    def solve(self, r_l: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(Δq, Δλ) for the residuals r_l = Tᵀ r (in the frame R fixed by :meth:`prepare`)
+        and g."""
+        z = self.solve0(r_l)                                            # S₀⁻¹ Tᵀ r
+        if self.BT is None:
+            return z.reshape(-1, 3).dot(self.back).ravel(), g[:0]
+        Gz = self.G.dot(z)
+        Gz[:self.m] -= g
+        sol = self.minus_inverse.dot(Gz)                              # [Δλ; y]
+        z += sol.dot(self.BT)
+        return z.reshape(-1, 3).dot(self.back).ravel(), sol[:self.m]
+
+
+def _border(n: int, k: int, m: int) -> tuple[np.ndarray, ...]:
+    """Bᵀ (k × n), G (k × n), minus the capacitance matrix's identity block [0 0; 0 I]
+    (k × k) beyond the m constraint rows, and the constraint rows of Bᵀ and of G (as
+    (m nf, 3)), which every step rewrites."""
+    minus_pad = np.zeros((k, k))
+    minus_pad[m:, m:] = -np.eye(k - m)
+    BT, G = np.zeros((k, n)), np.zeros((k, n))
+    return BT, G, minus_pad, BT[:m], G[:m].reshape(-1, 3)
 
 
 class AssembledKKT:
@@ -121,18 +125,21 @@ class AssembledKKT:
                  apply_A: Callable[[np.ndarray], np.ndarray]) -> None:
         self.body, self.c, self.S0, self.apply_A = body, constraints, S0, apply_A
         self.es: Any = None
-        self.U: np.ndarray | None = None
+        self.C: np.ndarray | None = None
 
-    def prepare(self, es: Any, U: np.ndarray, exact: bool, relinearise: bool = True) -> None:
-        """Linearise at ``es`` with the constraint directions U (always exact)."""
-        self.es, self.U = es, U
+    def prepare(self, es: Any, U: np.ndarray, C: np.ndarray | None, exact: bool,
+                relinearise: bool = True) -> None:
+        """Linearise at ``es`` with the constraint rows C (always exact)."""
+        self.es, self.C, self.R = es, C, es.rotation
 
-    def solve(self, r: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def solve(self, r_l: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(Δq, Δλ) for the residuals r_l = Tᵀ r (in the frame R of ``prepare``) and g."""
         n, m = self.body.dofs, self.c.count
-        T = np.kron(np.eye(n // 3), self.es.rotation)
+        r = r_l.reshape(-1, 3).dot(self.R.T).ravel()
+        T = np.kron(np.eye(n // 3), self.R)
         X, Y = frame_update(self.body, self.es, self.apply_A)
         S = T @ self.S0 @ T.T + X @ Y
-        C = self.c.jacobian(self.U)
+        C = self.C if m else np.zeros((0, n))
         kkt = np.block([[S, C.T], [C, np.zeros((m, m))]])
         sol = -np.linalg.solve(kkt, np.concatenate([r, g]))
         return sol[:n], sol[n:]

@@ -30,9 +30,9 @@ class ExternalForces:
         factors = np.array([load.factor(t) for load in self.loads])
         return self.gravity_force + self.load_vectors @ factors
 
-    def gravity_potential(self, q: np.ndarray) -> float:
-        """V_g = −q · f_g (zero at q = 0)."""
-        return -float(q @ self.gravity_force)
+    def gravity_potential(self, q: np.ndarray) -> np.ndarray:
+        """V_g = −q · f_g (zero at q = 0), for q or for rows of them (k, n)."""
+        return -q.dot(self.gravity_force)
 
 
 def external_forces(body: Body, gravity: tuple[float, float, float],

@@ -11,10 +11,11 @@ work ∫ −λ · (C q̇) dt (a drive's work; ~0 for fixed joints) and the dampi
 is zero for the exact solution; the integrator's numerical dissipation (ρ∞ < 1) and its
 error show up in it (:attr:`Extremes.energy_drift`).
 
-Rows are filled into a buffer of :attr:`RecordPlan.block_rows` rows (``results.block_rows``)
-and handed to a sink
-(``results``: memory or a streamed file) when it is full, so what the recorder holds does
-not grow with the run; the maxima the summary reports are kept as the blocks pass.
+Rows are kept raw in a block of at most :attr:`RecordPlan.block_rows` rows
+(``results.block_rows``), turned into the recorded series and handed to a sink (``results``:
+memory or a streamed file) when it is full, so what the recorder holds does not grow with
+the run and the time loop does no more per recorded step than copy the state; the maxima
+the summary reports are kept as the blocks pass.
 """
 from __future__ import annotations
 
@@ -28,7 +29,7 @@ from gcms_fenicsx.dynamics.body import Body
 from gcms_fenicsx.dynamics.state import State, StepInfo
 from gcms_fenicsx.dynamics.joints import Constraints
 from gcms_fenicsx.dynamics.loads import ExternalForces
-from gcms_fenicsx.dynamics.results import (ENERGY_NAMES, MULTIPLIERS, Series, Sink, block_rows,
+from gcms_fenicsx.dynamics.results import (BLOCK_BYTES, MULTIPLIERS, Series, Sink, block_rows,
                                            series_layout)
 from gcms_fenicsx.dynamics.scene import Outputs, Scene
 
@@ -125,42 +126,51 @@ class Extremes:
 
 class Recorder:
     """Rows for the steps ``0, every, 2·every, …`` and the last one, handed to ``sink`` in
-    blocks of ``plan.block_rows``; field snapshots at ``plan.snapshot_steps``."""
+    blocks; field snapshots at ``plan.snapshot_steps``.
+
+    In the time loop a step only adds its powers to the work integrals (the trapezoidal rule
+    takes every step) and, when it is recorded, copies its raw row into preallocated arrays:
+    q and q̇ in one copy, λ, and a tuple of scalars (t, iterations, V, the works). The derived
+    series (group positions, momenta, energies) are computed for a whole block of rows at
+    once when it is handed on (:meth:`flush`). A block holds ``plan.block_rows`` rows, fewer
+    where the raw rows of a large body would exceed ``BLOCK_BYTES``
+    (docs/integrator_profile.md).
+    """
 
     def __init__(self, body: Body, constraints: Constraints, forces: ExternalForces,
                  outputs: Outputs, plan: RecordPlan, time_step_s: float, sink: Sink) -> None:
         self.body, self.c, self.forces, self.out = body, constraints, forces, outputs
         self.plan, self.sink = plan, sink
         self.h = time_step_s
-        self.buffer = {s.name: np.zeros((plan.block_rows, *s.shape), s.dtype)
-                       for s in plan.layout}
-        b = self.buffer
+        n, m = body.dofs, (constraints.count if outputs.constraint_forces else 0)
+        rows = max(1, min(plan.block_rows, BLOCK_BYTES // (8 * (2 * n + m + 6))))
+        self.qv = np.zeros((rows, 2, n))
+        self.multipliers = np.zeros((rows, m))
+        self.scalars: list[tuple] = []   # t, iterations, V, load, constraint, damping work
         self.filled = 0
         self.last_time: float | None = None
         self.extremes = Extremes()
-        self.groups = [(body.groups[g], b[f"groups/{g}/position"], b[f"groups/{g}/velocity"])
-                       for g in outputs.groups]
-        self.energy = {n: b[f"energy/{n}"] for n in ENERGY_NAMES} if outputs.energy else {}
-        self.multipliers = b[MULTIPLIERS] if b[MULTIPLIERS].shape[1] else None
-        self.coordinates = ((b["coordinates/q"], b["coordinates/v"]) if outputs.coordinates
-                            else None)
-        self._work = np.zeros(3)     # load, constraint, damping
-        self._power: np.ndarray | None = None
-        self._initial_energy = 0.0
-
-    def _powers(self, s: State, info: StepInfo) -> np.ndarray:
-        # f_ext without gravity: the loads, whose power is their work rate
-        load = float((info.external_force - self.forces.gravity_force) @ s.v) \
-            if self.forces.loads else 0.0
-        constraint = -float(s.lam @ self.c.values(s.v, info.directions)) if self.c.count else 0.0
-        return np.array([load, constraint, info.dissipation_w])
+        self.energy = outputs.energy
+        self.loads = bool(forces.loads)
+        self.work = [0.0, 0.0, 0.0]     # load, constraint, damping
+        self._power: tuple[float, float, float] | None = None
+        self._initial_energy: float | None = None
 
     def step(self, index: int, s: State, info: StepInfo, last: bool = False) -> None:
-        """Account for step ``index`` (0 = initial state) and record it if it is due."""
+        """Account for step ``index`` (0 = initial state) and record it if it is due: add the
+        powers of the loads (f_ext without gravity), of the constraint forces (−λ · C q̇) and
+        of the damping to the work integrals."""
         if self.energy:
-            power = self._powers(s, info)
-            if self._power is not None:
-                self._work += 0.5 * self.h * (self._power + power)
+            v = s.Z[1]
+            load = (info.external_force - self.forces.gravity_force).dot(v) if self.loads \
+                else 0.0
+            constraint = -s.lam.dot(info.jacobian.dot(v)) if info.jacobian is not None else 0.0
+            power = (float(load), float(constraint), info.dissipation_w)
+            before, w, half_h = self._power, self.work, 0.5 * self.h
+            if before is not None:
+                w[0] += half_h * (before[0] + power[0])
+                w[1] += half_h * (before[1] + power[1])
+                w[2] += half_h * (before[2] + power[2])
             self._power = power
         if index in self.plan.snapshot_steps:
             self.sink.snapshot(s.t, self.body.displacement(s.q))
@@ -168,40 +178,51 @@ class Recorder:
             self.record(s, info)
 
     def record(self, s: State, info: StepInfo) -> None:
-        """Write a row for a state already accounted for by :meth:`step`."""
+        """Copy the raw row of a state already accounted for by :meth:`step`."""
         k = self.filled
-        b = self.buffer
-        b["time"][k] = s.t
-        b["newton_iterations"][k] = info.iterations
-        Q, V = s.q.reshape(-1, 3), s.v.reshape(-1, 3)
-        for rows, pos, vel in self.groups:
-            pos[k] = Q.T @ rows.position
-            vel[k] = V.T @ rows.position
-        kinetic, b["momentum/linear"][k], b["momentum/angular"][k] = self.body.momenta(s.q, s.v)
-        if self.multipliers is not None:
+        self.qv[k] = s.Z[:2]
+        if self.multipliers.shape[1]:
             self.multipliers[k] = s.lam
-        if self.coordinates is not None:
-            self.coordinates[0][k], self.coordinates[1][k] = s.q, s.v
-        if self.energy:
-            e = self.energy
-            e["kinetic"][k] = kinetic
-            e["elastic"][k] = info.elastic.energy
-            e["gravity"][k] = self.forces.gravity_potential(s.q)
-            e["load_work"][k], e["constraint_work"][k], e["damping_dissipation"][k] = self._work
-            total = e["kinetic"][k] + e["elastic"][k] + e["gravity"][k]
-            if self.last_time is None:
-                self._initial_energy = total
-            e["balance_error"][k] = (total - self._initial_energy - self._work[0]
-                                     - self._work[1] + self._work[2])
+        w = self.work
+        self.scalars.append((s.t, info.iterations, info.elastic.energy if self.energy else 0.0,
+                             w[0], w[1], w[2]))
         self.last_time = s.t
-        self.filled += 1
-        if self.filled == len(b["time"]):
+        self.filled = k + 1
+        if self.filled == len(self.qv):
             self.flush()
 
     def flush(self) -> None:
-        """Hand the buffered rows to the sink."""
-        if self.filled:
-            block = {name: rows[:self.filled] for name, rows in self.buffer.items()}
-            self.extremes.update(block)
-            self.sink.append(block)
-            self.filled = 0
+        """Compute the block's series from its raw rows and hand them to the sink."""
+        k = self.filled
+        if not k:
+            return
+        body, out = self.body, self.out
+        Q = self.qv[:k, 0].reshape(k, -1, 3)
+        V = self.qv[:k, 1].reshape(k, -1, 3)
+        scalars = np.array(self.scalars, dtype=float)
+        self.scalars = []
+        block = {"time": scalars[:, 0].copy(),
+                 "newton_iterations": scalars[:, 1].astype("<i4")}
+        for g in out.groups:
+            h = body.groups[g].position
+            block[f"groups/{g}/position"] = np.matmul(h, Q)
+            block[f"groups/{g}/velocity"] = np.matmul(h, V)
+        kinetic, block["momentum/linear"], block["momentum/angular"] = body.momenta(Q, V)
+        block[MULTIPLIERS] = self.multipliers[:k]
+        if out.coordinates:
+            block["coordinates/q"], block["coordinates/v"] = self.qv[:k, 0], self.qv[:k, 1]
+        if self.energy:
+            elastic, w = scalars[:, 2], scalars[:, 3:]
+            gravity = self.forces.gravity_potential(self.qv[:k, 0])
+            total = kinetic + elastic + gravity
+            if self._initial_energy is None:
+                self._initial_energy = float(total[0])
+            block.update({"energy/kinetic": kinetic, "energy/elastic": elastic,
+                          "energy/gravity": gravity, "energy/load_work": w[:, 0],
+                          "energy/constraint_work": w[:, 1],
+                          "energy/damping_dissipation": w[:, 2],
+                          "energy/balance_error": (total - self._initial_energy - w[:, 0]
+                                                   - w[:, 1] + w[:, 2])})
+        self.extremes.update(block)
+        self.sink.append(block)
+        self.filled = 0

@@ -10,6 +10,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from gcms_fenicsx.dynamics.lapack import svd
+
 
 class InvertedBodyError(ArithmeticError):
     """The body's affine map has a non-positive determinant or is degenerate: no rotation can be
@@ -30,16 +32,18 @@ class InvertedBodyError(ArithmeticError):
         return f"det = {self.det:.3e} (singular values {s[0]:.3e}, {s[1]:.3e}, {s[2]:.3e})"
 
 
-#: [w]× = (w @ _SKEW).reshape(3, 3): row k holds the flattened [e_k]×.
-_SKEW = np.array([[0, 0, 0, 0, 0, -1, 0, 1, 0],
-                  [0, 0, 1, 0, 0, 0, -1, 0, 0],
-                  [0, -1, 0, 1, 0, 0, 0, 0, 0]], dtype=float)
+#: [w]× = (w @ SKEW_ROWS).reshape(3, 3): row k holds the flattened [e_k]×.
+SKEW_ROWS = np.array([[0, 0, 0, 0, 0, -1, 0, 1, 0],
+                      [0, 0, 1, 0, 0, 0, -1, 0, 0],
+                      [0, -1, 0, 1, 0, 0, 0, 0, 0]], dtype=float)
+#: w(Y) = Y.ravel() @ AXIAL_ROWS (:func:`axial`): Y : [e_k]× in column k, i.e. SKEW_ROWSᵀ.
+AXIAL_ROWS = SKEW_ROWS.T.copy()
 
 
 def skew(w: np.ndarray) -> np.ndarray:
     """[w]× with [w]× v = w × v, for a 3-vector or a stack of them."""
     w = np.asarray(w)
-    return (w @ _SKEW).reshape(w.shape[:-1] + (3, 3))
+    return (w @ SKEW_ROWS).reshape(w.shape[:-1] + (3, 3))
 
 
 def axial(Y: np.ndarray) -> np.ndarray:
@@ -60,6 +64,7 @@ class Polar(NamedTuple):
     rotation: np.ndarray
     values: np.ndarray     # Σ
     vt: np.ndarray         # Vᵀ
+    trace: float           # tr Σ = tr U
 
     @property
     def stretch(self) -> np.ndarray:
@@ -69,19 +74,25 @@ class Polar(NamedTuple):
     @property
     def rate_operator_inverse(self) -> np.ndarray:
         """S⁻¹ for :func:`rotation_rate`: S = tr U · I − U = V (tr Σ · I − Σ) Vᵀ."""
-        return (self.vt.T / (self.values.sum() - self.values)) @ self.vt
+        return (self.vt.T / (self.trace - self.values)).dot(self.vt)
+
+    def rate_solve(self, w: np.ndarray) -> np.ndarray:
+        """S⁻¹ w = V (Vᵀ w / (tr Σ − Σ)), without forming S⁻¹."""
+        return self.vt.T.dot(self.vt.dot(w) / (self.trace - self.values))
 
 
 def polar(A: np.ndarray) -> Polar:
     """The polar decomposition A = R U, R a rotation and U symmetric positive definite.
 
-    Unique for det A > 0; a reflected or degenerate A raises :class:`InvertedBodyError`.
+    Unique for det A > 0; a reflected or degenerate A (and one that is not finite) raises
+    :class:`InvertedBodyError`.
     """
-    W, s, Vt = np.linalg.svd(A)
-    R = W @ Vt
-    if _det3(R) < 0.0 or not s[2] > 1e-12 * s[0]:
+    W, s, Vt = svd(A)
+    R = W.dot(Vt)
+    s0, s1, s2 = s.tolist()
+    if not (_det3(R) > 0.0 and s2 > 1e-12 * s0):
         raise InvertedBodyError(np.linalg.det(A), s)
-    return Polar(R, s, Vt)
+    return Polar(R, s, Vt, s0 + s1 + s2)
 
 
 def _det3(M: np.ndarray) -> float:

@@ -135,7 +135,7 @@ def _run(body: Body, scene: Scene, open_sink: OpenSink, capacity: Capacity, *,
     returns when closed."""
     scene.check_groups(body.groups)
     t_setup = time.perf_counter()
-    run = _prepare(body, scene, capacity, factorize, elastic, progress)
+    run = prepare_run(body, scene, capacity, factorize, elastic, progress)
     sink = open_sink(run.plan)
     recorder = Recorder(body, run.constraints, run.forces, scene.outputs, run.plan,
                         scene.time_step_s, sink)
@@ -151,8 +151,9 @@ def _run(body: Body, scene: Scene, open_sink: OpenSink, capacity: Capacity, *,
     return _summary(body, scene, run, stepped, recorder.extremes, setup_s, model_hash), traj
 
 
-def _prepare(body: Body, scene: Scene, capacity: Capacity, factorize: Factorize,
-             elastic: Elastic | None, progress: Progress) -> Prepared:
+def prepare_run(body: Body, scene: Scene, capacity: Capacity,
+                factorize: Factorize = dense_factorization, elastic: Elastic | None = None,
+                progress: Progress = quiet) -> Prepared:
     """Initial coordinates, Mr⁻¹, the independent joint rows, the results' budget (refused
     before anything is allocated if over ``capacity``), the stepper and the initial state."""
     for warning in scene.warnings():

@@ -1,8 +1,7 @@
 """The integrator's state at a time, and what a converged step leaves for the recorder."""
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any, Callable, NamedTuple
 
 import numpy as np
 
@@ -12,24 +11,45 @@ from gcms_fenicsx.dynamics.corotated import ElasticState
 #: co-rotated linear elasticity (``corotated.elastic_state``) or a reference's law.
 Elastic = Callable[[np.ndarray], Any]
 
-@dataclass
-class State:
-    """The integrator's state at time t: q, q̇, q̈, a (generalized-α) and λ."""
+
+class State(NamedTuple):
+    """The integrator's state at time t: q, q̇, q̈ and a (generalized-α) as the rows of one
+    (4, n) array ``Z`` (the predictor is one product with it), and λ."""
 
     t: float
-    q: np.ndarray
-    v: np.ndarray
-    acc: np.ndarray
-    a: np.ndarray
+    Z: np.ndarray
     lam: np.ndarray
 
+    @classmethod
+    def of(cls, t: float, q: np.ndarray, v: np.ndarray, acc: np.ndarray, a: np.ndarray,
+           lam: np.ndarray) -> State:
+        return cls(t, np.array([q, v, acc, a]), lam)
 
-@dataclass(frozen=True)
-class StepInfo:
-    """What a converged step leaves for the recorder."""
+    @property
+    def q(self) -> np.ndarray:
+        return self.Z[0]
+
+    @property
+    def v(self) -> np.ndarray:
+        return self.Z[1]
+
+    @property
+    def acc(self) -> np.ndarray:
+        return self.Z[2]
+
+    @property
+    def a(self) -> np.ndarray:
+        return self.Z[3]
+
+
+class StepInfo(NamedTuple):
+    """What a converged step leaves for the recorder: the elastic state of its last residual,
+    the damping's power, the constraint directions u(t) and matrix C(t), its Newton
+    iterations and f_ext(t)."""
 
     elastic: ElasticState
     dissipation_w: float
-    directions: np.ndarray   # constraint directions u(t)
+    directions: np.ndarray
     iterations: int
-    external_force: np.ndarray  # f_ext(t)
+    external_force: np.ndarray
+    jacobian: np.ndarray | None = None

@@ -80,6 +80,11 @@ class SVKState:
         self._u.x.array[:] = self._displacement
         return fem.assemble_scalar(self._energy_form)
 
+    @property
+    def local_gradient(self) -> np.ndarray:
+        """The force in the body frame, Tᵀ f (nf, 3), as the integrator takes it."""
+        return self.force.reshape(-1, 3).dot(self.rotation)
+
 
 def svk_forms(V: fem.FunctionSpace, material: Material,
               u: fem.Function) -> tuple[ufl.Form, ufl.Form]:

@@ -18,8 +18,7 @@ import pytest
 from beams import (E_STEEL, GRAVITY, HEIGHT_Z, LENGTH, RHO_STEEL, WIDTH_Y,
                    linear_static_displacement)
 from gcms_fenicsx.dynamics.body import Body
-from gcms_fenicsx.dynamics.corotated import (elastic_state, elastic_tangent,
-                                             translation_free_force, without_translation)
+from gcms_fenicsx.dynamics.corotated import elastic_state, elastic_tangent
 from gcms_fenicsx.dynamics.joints import build_constraints
 from gcms_fenicsx.dynamics.rotation import rotation_about, skew
 from gcms_fenicsx.dynamics.scene import parse_scene
@@ -104,8 +103,8 @@ def _geometric_part(body: Body, K: np.ndarray, R: np.ndarray) -> np.ndarray:
     n, nf = body.dofs, body.field_count
     material = np.empty((n, n))
     for j, dq in enumerate(np.eye(n)):
-        e = without_translation(body, dq.reshape(nf, 3) @ R).ravel()
-        P = translation_free_force(body, (body.stiffness @ e).reshape(nf, 3))
+        e = body.projections.deformation.dot(dq.reshape(nf, 3) @ R).ravel()
+        P = body.projections.force.dot((body.stiffness @ e).reshape(nf, 3))
         material[:, j] = (P @ R.T).ravel()
     return K - material
 
