@@ -1,7 +1,8 @@
 """The ``gcms`` command: ``gcms SUBCOMMAND [CONFIG.toml] --out DIR``.
 
 Each subcommand runs the stages it needs and writes its files into DIR only when all
-of them succeeded. Errors in the input end the command with one line naming the key,
+of them succeeded; a stage whose product in DIR was made from the same inputs is reused
+(``--fresh``: none is). Errors in the input end the command with one line naming the key,
 the value and what is allowed (exit status 2); a failed computation ends it with the
 numbers that failed (exit status 1). A simulation that stops early is the exception to
 "nothing written": its results up to there are kept, marked incomplete (exit status 1).
@@ -24,18 +25,22 @@ def _common(parser: argparse.ArgumentParser, config_required: bool = True) -> No
     else:
         parser.add_argument("config", type=Path, nargs="?", default=None,
                             help="study file (TOML); the built-in default when omitted")
-    parser.add_argument("--out", type=Path, required=True, help="output folder")
+    parser.add_argument("--out", type=Path, required=True, help="output folder (it also "
+                        "keeps each stage's product for the next command to reuse)")
+    parser.add_argument("--fresh", action="store_true",
+                        help="compute every stage: reuse nothing in the output folder")
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="gcms", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True, metavar="SUBCOMMAND")
     _common(sub.add_parser("mesh", help="build and mesh the geometry: mesh.msh, mesh.json"))
-    _common(sub.add_parser("modes", help="free-free modes: modes.json, mode_shapes/modes.pvd"))
+    _common(sub.add_parser("modes", help="free-free modes: modes.h5, modes.json (and "
+                           "mode_shapes/ when [outputs] mode_shapes = true)"))
     _common(sub.add_parser("reduce", help="GCMS selection and reduced model: reduced.h5, "
                            "selection.json"))
-    _common(sub.add_parser("simulate", help="the [scene] on the reduced model (reused from DIR "
-                           "when its inputs are unchanged): results.h5, summary.json, plots"))
+    _common(sub.add_parser("simulate", help="the [scene] on the reduced model: results.h5, "
+                           "summary.json, plots"))
     _common(sub.add_parser("run", help="every stage, on CONFIG or the built-in default"),
             config_required=False)
     return parser
@@ -57,7 +62,7 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     try:
         with interruptible():
-            summary = getattr(commands, args.command)(args.config, args.out)
+            summary = getattr(commands, args.command)(args.config, args.out, args.fresh)
     except (Interrupted, KeyboardInterrupt) as exc:
         signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
         if comm.rank == 0:

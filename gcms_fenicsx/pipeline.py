@@ -1,7 +1,7 @@
 """The stages of a study as plain functions on plain data (docs/design.md §1).
 
-    mesh_stage ─► body_mesh ─► assembly_stage ─► modes_stage ─► reduction_stage
-               ─► reduced_model ─► simulation_stage
+    mesh_stage ─► body_mesh ─► assembly_stage ─► modes_stage ─► basis_stage
+               ─► reduction_stage ─► simulation_stage
 
 Each stage takes the tables and products it uses and returns a frozen product; none reads
 the whole study, writes a file of a command's or prints anything but progress. ``commands``
@@ -14,7 +14,7 @@ on every rank, distributed ones hold each rank's rows.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
@@ -37,6 +37,7 @@ if TYPE_CHECKING:
     from gcms_fenicsx.fe.assembly import FEModel
     from gcms_fenicsx.fe.mesh import BodyMesh, MassProperties
     from gcms_fenicsx.fe.modes import Modes
+    from gcms_fenicsx.reduction.modal_basis import ModalBasis
 
 
 def _world(comm: Any) -> Any:
@@ -142,25 +143,24 @@ def free_free(geometry: Geometry, mesh: MeshParams, material: Material, settings
                     modes_stage(assembly.model, settings, progress, memory_check))
 
 
-def reduction_stage(model: FEModel, modes: Modes, body: BodyMesh, settings: SelectionConfig,
-                    progress: Progress = quiet) -> ReducedModel:
-    """GCMS fields, their selection and the reduced matrices (``reduction.reduce``)."""
+def basis_stage(model: FEModel, modes: Modes, body: BodyMesh, progress: Progress = quiet
+                ) -> ModalBasis | None:
+    """Every GCMS field of the modes with G = Fᵀ Ms F, FᵀF and Kr of all of them and the node
+    groups, gathered on rank 0 in the mesh file's node order (None on the other ranks), so
+    one and two ranks give the same product (``reduction.basis.modal_basis``). Collective."""
+    from gcms_fenicsx.reduction.basis import modal_basis
+    progress("GCMS fields of every mode, their Gram and stiffness matrices")
+    return modal_basis(model, modes, body)
+
+
+def reduction_stage(basis: ModalBasis, settings: SelectionConfig, progress: Progress = quiet
+                    ) -> ReducedModel:
+    """Selection and the reduced matrices from the modal basis (``reduction.reduce``): NumPy
+    on one rank, neither the mesh nor K. Its provenance (input hash, material, mesh
+    statistics) is left empty for the caller."""
     from gcms_fenicsx.reduction.reduce import reduce_body
-    progress("GCMS fields, selection and reduced matrices")
-    return reduce_body(model, modes, body, settings)
-
-
-def reduced_model(reduction: ReducedModel, comm: Any = None) -> ReducedModel | None:
-    """The reduction stage's product with every rank's rows of F and of the node coordinates
-    gathered on rank 0, in global node order (None on the other ranks). Its provenance (input
-    hash, material, mesh statistics) is left empty for the caller."""
-    comm = _world(comm)
-    fields = comm.gather(reduction.fields, root=0)
-    nodes = comm.gather(reduction.nodes_m, root=0)
-    if comm.rank != 0:
-        return None
-    import numpy as np
-    return replace(reduction, fields=np.vstack(fields), nodes_m=np.vstack(nodes))
+    progress("selection and reduced matrices")
+    return reduce_body(basis, settings)
 
 
 def simulation_stage(model: ReducedModel, scene: Scene, results: Path,

@@ -10,7 +10,7 @@ import numpy as np
 from gcms_fenicsx import pipeline
 from gcms_fenicsx.fe import algebra, mass
 from gcms_fenicsx.config.selection import SelectionConfig
-from gcms_fenicsx.reduction import basis, selection
+from gcms_fenicsx.reduction import basis, modal_basis, selection
 from gcms_fenicsx.config.material import Material
 from gcms_fenicsx.config.modes import ModesConfig
 
@@ -26,7 +26,7 @@ Kr = basis.reduced_stiffness(model, fields.fields[:, kept])
 Phi = basis.phi_dense(fields.fields[:, kept])
 kr_defect = float(np.abs(algebra.gram(MPI.COMM_WORLD, Phi, algebra.mat_dense(model.K, Phi)) - Kr).max()
                   / np.abs(Kr).max())
-Mr = basis.reduced_mass(fields.gram_mass[np.ix_(kept, kept)])
+Mr = modal_basis.reduced_mass(fields.gram_mass[np.ix_(kept, kept)])
 reduced = np.linalg.eigvalsh(np.linalg.solve(np.linalg.cholesky(Mr), np.linalg.solve(
     np.linalg.cholesky(Mr), Kr).T))  # L⁻¹ Kr L⁻ᵀ: the pencil (Kr, Mr), sign-independent
 if MPI.COMM_WORLD.rank == 0:

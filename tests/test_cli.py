@@ -47,7 +47,15 @@ def test_mesh_writes_msh_and_json(beam_config, tmp_path):
     assert sorted(p.name for p in out.iterdir()) == ["mesh.json", "mesh.msh"]
 
 
-def test_modes_writes_json_and_mode_shapes(beam_config, tmp_path):
+def test_modes_writes_json_and_mode_shapes_only_when_asked(beam_config, tmp_path):
+    """gcms modes writes modes.h5 and modes.json, and no mode shapes unless [outputs] asks;
+    asked, the next command reuses the solve and writes them as binary XDMF + HDF5 whose
+    vectors are the cached mode shapes at the same coordinates (so the node order of the
+    cache and of the file agree)."""
+    import h5py
+
+    from gcms_fenicsx.files.modes_file import read_modes
+
     out = tmp_path / "out"
     run = gcms("modes", str(beam_config), "--out", str(out))
     assert run.returncode == 0, run.stderr
@@ -58,9 +66,29 @@ def test_modes_writes_json_and_mode_shapes(beam_config, tmp_path):
     assert report["max_relative_residual"] < 1e-8
     assert {"assembly", "eigensolve", "inertia_check"} <= set(report["timings_s"])
     assert report["ndofs"] == 3 * json.loads((out / "mesh.json").read_text())["nodes"]
-    pvd = (out / "mode_shapes" / "modes.pvd").read_text()
-    assert pvd.count("<DataSet") == 6
+    assert report["stages"]["modes"]["status"] == "computed"
+    assert not (out / "mode_shapes").exists()
     assert "[   " in run.stderr  # progress lines
+
+    asking = tmp_path / "shapes.toml"
+    asking.write_text(beam_config.read_text() + "\n[outputs]\nmode_shapes = true\n")
+    run = gcms("modes", str(asking), "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    stages = json.loads((out / "modes.json").read_text())["stages"]
+    assert stages["modes"]["status"] == "reused" and stages["mode_shapes"]["status"] == "computed"
+    assert "modes: reusing" in run.stderr
+    basis = read_modes(out / "modes.h5").basis
+    with h5py.File(out / "mode_shapes" / "mode_shapes.h5") as f:
+        x = f["Mesh/mesh/geometry"][()]
+        shapes = [f[f"Function/mode_shape/{j + 1}"][()] for j in range(6)]
+    assert len(x) == len(basis.nodes_m)
+    # the two coordinate sets are computed apart (geometry and space nodes): equal to 1e-16 m
+    mine, theirs = (np.lexsort(np.round(c / 1e-9).T) for c in (basis.nodes_m, x))
+    np.testing.assert_allclose(x[theirs], basis.nodes_m[mine], rtol=0, atol=1e-14)
+    for j, shape in enumerate(shapes):  # dolfinx's writer leaves round-off: 9e-15 measured
+        expected = basis.mode_fields()[mine, :, j]
+        np.testing.assert_allclose(shape[theirs], expected, rtol=0,
+                                   atol=1e-12 * np.abs(expected).max())
 
 
 @pytest.mark.parametrize("patch, key", [

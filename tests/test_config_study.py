@@ -28,3 +28,30 @@ def test_the_hash_follows_the_tables_it_covers():
     unscened = parse_config({"geometry": {"kind": "crankshaft", "throws": 4},
                              "mesh": {"order": 2}, "modes": {"count": 10}})
     assert unscened.digest(*REDUCED_MODEL_TABLES) == base.digest(*REDUCED_MODEL_TABLES)
+
+
+def test_auto_count_takes_the_band_of_the_scene():
+    """count = "auto": twice the highest excitation (harmonic load + drive speed), capped by
+    what the step resolves (ten steps per period); refused without a scene."""
+    import math
+    import tomllib
+
+    import pytest
+
+    from gcms_fenicsx.config.study import default_config_text
+    from gcms_fenicsx.config.table import ConfigError
+
+    raw = tomllib.loads(default_config_text())
+    band = parse_config(dict(raw, modes={"count": "auto"})).modes.band
+    drive_hz = 314.159 / (2 * math.pi)                       # the default scene: 3000 rpm
+    assert band.excitation_hz == pytest.approx(25.0 + drive_hz)   # its 25 Hz firing loads
+    assert band.max_frequency_hz == pytest.approx(2 * (25.0 + drive_hz))
+    assert band.set_by == "drive" and band.resolved_hz == pytest.approx(2000.0)
+    coarse = dict(raw["scene"], time_step=2e-3)              # resolves 50 Hz only
+    capped = parse_config(dict(raw, modes={"count": "auto"}, scene=coarse)).modes.band
+    assert capped.set_by == "time step" and capped.max_frequency_hz == pytest.approx(50.0)
+    no_scene = {k: v for k, v in raw.items() if k != "scene"}
+    with pytest.raises(ConfigError, match=r"\[modes\] count.*needs a \[scene\]"):
+        parse_config(dict(no_scene, modes={"count": "auto"}))
+    with pytest.raises(ConfigError, match='integer ≥ 1 or "auto"'):
+        parse_config(dict(raw, modes={"count": "all"}))

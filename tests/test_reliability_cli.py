@@ -130,3 +130,22 @@ def test_a_copied_cache_is_reused_only_when_intact(beam6_reduced, tmp_path):
     shutil.copy2(beam6_reduced, out / "reduced.h5")
     run = gcms("simulate", str(study(tmp_path)), "--out", str(out))
     assert run.returncode == 0 and "reusing" in run.stderr, run.stderr
+
+
+def test_spherical_joints_draw_no_empty_moment_panel(beam6_reduced, tmp_path):
+    """A scene whose joints constrain no rotation draws joints.png with the force panel only
+    (no empty moment panel, no legend warning); a fixed joint draws both."""
+    import struct
+
+    def png_height(path):
+        return struct.unpack(">I", path.read_bytes()[20:24])[0]
+
+    out = output_folder(tmp_path, beam6_reduced)
+    spherical = SCENE.replace('type = "fixed"', 'type = "spherical"')
+    run = gcms("simulate", str(study(tmp_path, spherical, "ball.toml")), "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    assert "legend" not in run.stderr.lower() and "warning" not in run.stderr.lower()
+    one_panel = png_height(out / "joints.png")
+    run = gcms("simulate", str(study(tmp_path)), "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    assert png_height(out / "joints.png") > 1.5 * one_panel

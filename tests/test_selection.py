@@ -12,7 +12,7 @@ from dolfinx.mesh import CellType, create_box
 from symmetric_mesh import symmetric_box
 from gcms_fenicsx import pipeline
 from gcms_fenicsx.fe import algebra
-from gcms_fenicsx.reduction import basis, selection
+from gcms_fenicsx.reduction import basis, modal_basis, selection
 from gcms_fenicsx.config.material import Material
 from gcms_fenicsx.config.modes import ModesConfig
 from gcms_fenicsx.config.selection import SelectionConfig, parse_selection
@@ -25,7 +25,7 @@ def _reduced_eigenvalues(model, B, kept) -> np.ndarray:
     """Generalised eigenvalues of (Kr, Mr) on the kept fields; a singular Mr (no pruning) is
     restricted to its range, dropping only directions below 1e-14 of its largest eigenvalue."""
     Kr = basis.reduced_stiffness(model, B.fields[:, kept])
-    Mr = basis.reduced_mass(B.gram_mass[np.ix_(kept, kept)])
+    Mr = modal_basis.reduced_mass(B.gram_mass[np.ix_(kept, kept)])
     w, V = np.linalg.eigh(Mr)
     T = V[:, w > 1e-14 * w.max()] / np.sqrt(w[w > 1e-14 * w.max()])
     return np.linalg.eigvalsh(T.T @ Kr @ T)
@@ -43,7 +43,7 @@ def square():
 def test_reduced_mass_is_the_kronecker_gram(square):
     model, _, B = square
     Phi = basis.phi_dense(B.fields)
-    np.testing.assert_allclose(basis.reduced_mass(B.gram_mass), Phi.T @ algebra.mat_dense(model.M, Phi),
+    np.testing.assert_allclose(modal_basis.reduced_mass(B.gram_mass), Phi.T @ algebra.mat_dense(model.M, Phi),
                                rtol=1e-12, atol=1e-12 * B.gram_mass.max())
     Kr = basis.reduced_stiffness(model, B.fields)
     np.testing.assert_allclose(Kr, Phi.T @ algebra.mat_dense(model.K, Phi), rtol=1e-10,
@@ -119,7 +119,7 @@ def test_square_beam_first_bending_pair(square):
     cond = selection.conditioning(B.gram_mass, B.gram_euclid, kept=default.kept)
     assert cond["cond_mr_after"] < 1e8 < cond["cond_mr_before"]
     assert cond["cond_phi_after"] < cond["cond_phi_before"]
-    scipy.linalg.cholesky(basis.reduced_mass(B.gram_mass[np.ix_(default.kept, default.kept)]))
+    scipy.linalg.cholesky(modal_basis.reduced_mass(B.gram_mass[np.ix_(default.kept, default.kept)]))
 
 
 def _rotation(seed: int) -> np.ndarray:

@@ -75,19 +75,17 @@ def bodies():
     for material, E in MATERIALS_E_PA.items():
         steel_or_soft = parse_material(dict(pendulum.STUDY["material"], E=E))
         model = pipeline.assembly_stage(body_mesh.mesh, steel_or_soft).model
-        modes = pipeline.modes_stage(model, cfg.modes)
+        every = pipeline.basis_stage(model, pipeline.modes_stage(model, cfg.modes), body_mesh)
         for nm in MODE_COUNTS:
             variants = (("default", cfg.selection), ("none", none))
             for label, settings in variants[:2 if material == "soft" else 1]:
                 try:
-                    reduction = pipeline.reduction_stage(model, modes.lowest(nm), body_mesh,
-                                                         settings)
+                    reduced = pipeline.reduction_stage(every.lowest(nm), settings)
                 except ReductionError as exc:
                     yield material, nm, label, None, None, str(exc)
                     continue
-                reduced = pipeline.reduced_model(reduction)
                 yield (material, nm, label, reduced, body_from_reduced(reduced),
-                       reduction.selection)
+                       reduced.selection)
 
 
 def timed(body, scene, jacobian: str, repeat: int) -> dict:
@@ -209,10 +207,10 @@ def default_scene_model(folder: Path) -> tuple[Path, int]:
 
     cfg = parse_config(tomllib.loads(default_config_text()))
     chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, folder)
-    reduction = pipeline.reduction_stage(chain.assembly.model, chain.modes, chain.body,
-                                         cfg.selection)
+    reduction = pipeline.reduction_stage(
+        pipeline.basis_stage(chain.assembly.model, chain.modes, chain.body), cfg.selection)
     path = folder / "default_scene.h5"
-    write_reduced(path, pipeline.reduced_model(reduction))
+    write_reduced(path, reduction)
     return path, cfg.modes.count
 
 

@@ -84,8 +84,9 @@ def gcms_body(model, modes, body_mesh, nm: int, tolerance: float | None):
     selection = SelectionConfig() if tolerance is None else \
         SelectionConfig(cosine_tolerance=tolerance ** 2, svd_tolerance=tolerance)
     t0 = time.perf_counter()
-    reduction = pipeline.reduction_stage(model, modes.lowest(nm), body_mesh, selection)
-    body = body_from_reduced(pipeline.reduced_model(reduction))
+    reduction = pipeline.reduction_stage(
+        pipeline.basis_stage(model, modes.lowest(nm), body_mesh), selection)
+    body = body_from_reduced(reduction)
     return body, reduction.selection, time.perf_counter() - t0
 
 

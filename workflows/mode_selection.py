@@ -63,7 +63,7 @@ def run_case(name: str, table: dict, folder: Path) -> dict:
     from gcms_fenicsx import pipeline
     from gcms_fenicsx.config.selection import SelectionConfig
     from gcms_fenicsx.config.study import parse_config
-    from gcms_fenicsx.reduction import basis, selection
+    from gcms_fenicsx.reduction import selection
     from gcms_fenicsx.reduction.reduce import ReductionError
 
     cfg = parse_config(table, name)
@@ -72,22 +72,21 @@ def run_case(name: str, table: dict, folder: Path) -> dict:
     out = {"case": name, "ndofs": model.ndofs, "eigensolve_s": all_modes.timings_s["eigensolve"],
            "frequencies_hz": all_modes.elastic_frequencies_hz.tolist(), "by_modes": {},
            "sweep": []}
+    every = pipeline.basis_stage(model, all_modes, body)
     for nm in MODE_COUNTS:
-        modes = all_modes.lowest(nm)
         row = {}
         for variant, settings in (("default", SelectionConfig()),
                                   ("plain", SelectionConfig(orthonormalize=False))):
-            row[variant] = pipeline.reduction_stage(model, modes, body, settings).selection
+            row[variant] = pipeline.reduction_stage(every.lowest(nm), settings).selection
         out["by_modes"][nm] = row
     if name in ("square", "crankshaft"):
-        modes = all_modes.lowest(10)
-        fields = basis.field_basis(model, modes)
+        fields = every.lowest(10)
         out["cosine"] = selection.cosine_matrix(fields.gram_mass).tolist()
         out["field_names"] = list(fields.names)
         for tol in SWEEP:
             settings = SelectionConfig(cosine_tolerance=tol, svd_tolerance=tol)
             try:
-                report = pipeline.reduction_stage(model, modes, body, settings).selection
+                report = pipeline.reduction_stage(every.lowest(10), settings).selection
             except ReductionError as exc:  # a too-tight tolerance leaves Mr singular: data
                 out["sweep"].append({"tolerance": tol, "error": str(exc)})
                 continue

@@ -230,11 +230,11 @@ def models(folder: Path) -> dict[str, Path]:
     cfg = parse_config(dict(pendulum.STUDY, modes={"count": max(MODE_COUNTS)}))
     chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, folder)
     paths = {}
+    every = pipeline.basis_stage(chain.assembly.model, chain.modes, chain.body)
     for nm in MODE_COUNTS:
-        reduction = pipeline.reduction_stage(chain.assembly.model, chain.modes.lowest(nm),
-                                             chain.body, cfg.selection)
+        reduction = pipeline.reduction_stage(every.lowest(nm), cfg.selection)
         paths[f"soft, Nm = {nm}"] = folder / f"soft{nm}.h5"
-        write_reduced(paths[f"soft, Nm = {nm}"], pipeline.reduced_model(reduction))
+        write_reduced(paths[f"soft, Nm = {nm}"], reduction)
     return paths
 
 

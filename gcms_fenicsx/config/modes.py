@@ -1,9 +1,11 @@
-"""The ``[modes]`` table: which free-free modes the eigen-solve returns, and how accurately."""
+"""The ``[modes]`` table: which free-free modes the eigen-solve returns, and how accurately:
+``count`` (an integer, or "auto": the scene's band) or ``max_frequency_hz``."""
 from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import Any, Mapping
 
+from gcms_fenicsx.config.scene_band import Band
 from gcms_fenicsx.config.table import Table
 
 
@@ -12,13 +14,20 @@ class ModesConfig:
     """What the free-free eigen-solve must return.
 
     Exactly one of ``count`` (number of elastic modes) and ``max_frequency_hz``
-    (every elastic mode below it) is set.
+    (every elastic mode below it) is set. ``count = "auto"`` is ``max_frequency_hz`` set to
+    the band of the study's scene (``config.scene_band``, given by the study as ``band``),
+    with at least one mode kept.
     """
 
     count: int | None = 10
     max_frequency_hz: float | None = None
     tolerance: float = 1e-10
     max_iterations: int = 200
+    band: Band | None = None
+
+    @property
+    def auto(self) -> bool:
+        return self.band is not None
 
 
 def parse_modes(raw: Mapping[str, Any] | None) -> ModesConfig:
@@ -29,6 +38,10 @@ def parse_modes(raw: Mapping[str, Any] | None) -> ModesConfig:
                       "give either count or max_frequency_hz, not both")
     if t.has("max_frequency_hz"):
         count, fmax = None, t.positive("max_frequency_hz")
+    elif t.get("count", default.count) == "auto":
+        count, fmax = None, None   # the study sets the band from its scene
+    elif isinstance(t.get("count", default.count), str):
+        raise t.error("count", t.get("count"), 'must be an integer ≥ 1 or "auto"')
     else:
         count, fmax = t.integer("count", default.count, low=1), None
     modes = ModesConfig(

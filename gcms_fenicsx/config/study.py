@@ -11,7 +11,7 @@ from __future__ import annotations
 import hashlib
 import json
 import tomllib
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any, Mapping
@@ -23,13 +23,17 @@ from gcms_fenicsx.config.geometry import parse_geometry, parse_mesh
 from gcms_fenicsx.dynamics.scene import Scene, parse_scene
 from gcms_fenicsx.config.material import Material, parse_material
 from gcms_fenicsx.config.modes import ModesConfig, parse_modes
+from gcms_fenicsx.config.outputs import OutputsConfig, parse_outputs
+from gcms_fenicsx.config.scene_band import scene_band
 from gcms_fenicsx.config.selection import SelectionConfig, parse_selection
 from gcms_fenicsx.config.table import ConfigError
 
 #: Tables a study file may contain, in pipeline order.
-KNOWN_TABLES = ("geometry", "mesh", "material", "modes", "selection", "scene")
+KNOWN_TABLES = ("geometry", "mesh", "material", "modes", "selection", "scene", "outputs")
 #: The tables a reduced model depends on: its input hash, and the key of its cache.
 REDUCED_MODEL_TABLES = ("geometry", "mesh", "material", "modes", "selection")
+#: The tables the mesh depends on: the key of mesh.msh.
+MESH_TABLES = ("geometry", "mesh")
 
 
 @dataclass(frozen=True)
@@ -40,6 +44,7 @@ class StudyConfig:
     modes: ModesConfig = field(default_factory=ModesConfig)
     selection: SelectionConfig = field(default_factory=SelectionConfig)
     scene: Scene | None = None
+    outputs: OutputsConfig = field(default_factory=OutputsConfig)
     source: str = "<built-in default>"
 
     def digest(self, *tables: str) -> str:
@@ -50,6 +55,14 @@ class StudyConfig:
         payload["gcms_fenicsx_version"] = __version__
         return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
 
+    def modes_key(self) -> str:
+        """The key of cached free-free modes: what the solve depends on apart from how many
+        modes it returns (more modes than asked serve as well: fewer are a leading block)."""
+        accuracy = {"tolerance": self.modes.tolerance,
+                    "max_iterations": self.modes.max_iterations}
+        return hashlib.sha256(json.dumps([self.digest("geometry", "mesh", "material"),
+                                          accuracy]).encode()).hexdigest()
+
 
 def parse_config(raw: Mapping[str, Any], source: str = "<dict>") -> StudyConfig:
     """Validate a whole study (a parsed TOML document)."""
@@ -58,13 +71,21 @@ def parse_config(raw: Mapping[str, Any], source: str = "<dict>") -> StudyConfig:
         raise ConfigError(f"[{unknown[0]}]", raw[unknown[0]],
                           "unknown table (allowed: " + ", ".join(KNOWN_TABLES) + ")")
     geom = parse_geometry(raw.get("geometry"))
+    modes, scene = parse_modes(raw.get("modes")), parse_scene(raw.get("scene"))
+    if modes.count is None and modes.max_frequency_hz is None:  # count = "auto"
+        if scene is None:
+            raise ConfigError("[modes] count", "auto", "needs a [scene]: the band of modes "
+                              "comes from its loads, drive and time step; give a number")
+        band = scene_band(scene)
+        modes = replace(modes, max_frequency_hz=band.max_frequency_hz, band=band)
     return StudyConfig(
         geometry=geom,
         mesh=parse_mesh(raw.get("mesh"), geom),
         material=parse_material(raw.get("material")),
-        modes=parse_modes(raw.get("modes")),
+        modes=modes,
         selection=parse_selection(raw.get("selection")),
-        scene=parse_scene(raw.get("scene")),
+        scene=scene,
+        outputs=parse_outputs(raw.get("outputs")),
         source=source,
     )
 
@@ -90,7 +111,14 @@ def load_config(path: str | Path | None = None) -> StudyConfig:
     return parse_config(raw, str(path))
 
 
+#: Fields added to a table after files keyed by its hash were written: left out of the hash
+#: while they hold their default None, so those files are still reused.
+LATER_FIELDS = ("band",)
+
+
 def _plain(obj: Any) -> Any:
     if hasattr(obj, "__dataclass_fields__"):
-        return {"type": type(obj).__name__, **asdict(obj)}
+        fields = {key: value for key, value in asdict(obj).items()
+                  if not (key in LATER_FIELDS and value is None)}
+        return {"type": type(obj).__name__, **fields}
     return obj

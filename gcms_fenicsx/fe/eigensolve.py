@@ -23,7 +23,8 @@ first elastic eigenvalue (min–max principle) that costs a few mat-vecs.
 
 Cost: one MUMPS factorisation of K − σM, then one triangular solve and a few M-products
 per Krylov step (M applied as Ms ⊗ I3, ``mass``), the Ritz vectors purified together in
-one multi-RHS solve, and a second factorisation for the Sylvester count.
+one multi-RHS solve, and the same factorisation refactorised numerically at the check shift for
+the Sylvester count (``factor.inertia_refactorised``: its ordering and analysis reused).
 """
 from __future__ import annotations
 
@@ -40,11 +41,12 @@ from slepc4py import SLEPc
 from gcms_fenicsx.config.modes import ModesConfig
 from gcms_fenicsx.fe.algebra import dense_operand, gram, mat_dense
 from gcms_fenicsx.fe.assembly import FEModel
-from gcms_fenicsx.fe.factor import factor_options, inertia_below, shifted_matrix
+from gcms_fenicsx.fe.factor import (factor_options, inertia_below, inertia_refactorised,
+                                    shifted_matrix)
 from gcms_fenicsx.fe.mass import kron_mass_operator, mass_dense, mass_properties
 from gcms_fenicsx.fe.modes import Modes
 from gcms_fenicsx.fe.verification import verify
-from gcms_fenicsx.reduction.spectrum import chained
+from gcms_fenicsx.reduction.spectrum import cut_cluster_warning
 from gcms_fenicsx.runtime.errors import ComputationFailed
 from gcms_fenicsx.runtime.progress import Progress, quiet
 
@@ -198,12 +200,16 @@ def without_rigid(model: FEModel, rigid: np.ndarray, Y: np.ndarray) -> np.ndarra
 
 @dataclass(frozen=True)
 class KrylovModes:
-    """What the Krylov solve returns: wanted elastic pairs (purified) and the next eigenvalue."""
+    """What the Krylov solve returns: wanted elastic pairs (purified), the next eigenvalue, and
+    the Sylvester count at the check shift halfway between the two (with its seconds)."""
 
     eigenvalues: np.ndarray
     vectors: np.ndarray
     next_eigenvalue: float
     iterations: int
+    check_shift: float
+    inertia_count: int
+    inertia_seconds: float
 
 
 def krylov_modes(model: FEModel, wanted: int, shift: Shift, rigid: np.ndarray,
@@ -229,11 +235,18 @@ def krylov_modes(model: FEModel, wanted: int, shift: Shift, rigid: np.ndarray,
     for j, i in enumerate(order[:wanted]):
         eps.getEigenvector(int(i), vr)
         ritz[:, j] = vr.array
-    elastic = purified(model, eps.getST().getKSP().getPC().getFactorMatrix(), ritz)
+    ksp = eps.getST().getKSP()
+    elastic = purified(model, ksp.getPC().getFactorMatrix(), ritz)
+    last, following = float(values[order[wanted - 1]]), float(values[order[wanted]])
+    check_shift = 0.5 * (last + following)
+    t0 = time.perf_counter()
+    inertia = inertia_refactorised(ksp, model, shift.sigma, check_shift)
+    inertia_seconds = time.perf_counter() - t0
     eps.destroy()
     return KrylovModes(eigenvalues=values[order[:wanted]],
-                       vectors=without_rigid(model, rigid, elastic),
-                       next_eigenvalue=float(values[order[wanted]]), iterations=its)
+                       vectors=without_rigid(model, rigid, elastic), next_eigenvalue=following,
+                       iterations=its, check_shift=check_shift, inertia_count=inertia,
+                       inertia_seconds=inertia_seconds)
 
 
 def wanted_modes(model: FEModel, cfg: ModesConfig, timings: dict[str, float]) -> int:
@@ -244,6 +257,8 @@ def wanted_modes(model: FEModel, cfg: ModesConfig, timings: dict[str, float]) ->
         cut = (2.0 * np.pi * cfg.max_frequency_hz) ** 2
         wanted = inertia_below(model, cut) - 6
         timings["count_below_max_frequency"] = time.perf_counter() - t0
+        if wanted < 1 and cfg.auto:
+            wanted = 1  # the scene's band lies below the first mode: keep that one
         if wanted < 1:
             raise EigenSolveError(
                 f"no elastic mode below max_frequency_hz = {cfg.max_frequency_hz:g} Hz "
@@ -256,21 +271,6 @@ def wanted_modes(model: FEModel, cfg: ModesConfig, timings: dict[str, float]) ->
                               f"{model.ndofs} degrees of freedom; ask for fewer than "
                               f"{model.ndofs // 2 - 8}")
     return wanted
-
-
-def cut_cluster_warning(last: float, following: float, count: int) -> str | None:
-    """A warning when the last wanted eigenvalue and the next are chained into one cluster
-    (``reduction.spectrum``):
-    the count then keeps an arbitrary part of a (near-)repeated group, chosen by the solver,
-    so the reduced basis is not continuous in the body's shape (a square beam's bending pair
-    kept half, docs/stability.md)."""
-    if not chained(last, following):
-        return None
-    split = (following - last) / following
-    hz = np.sqrt(np.array([last, following])) / (2 * np.pi)
-    return (f"{count} elastic modes cut a near-repeated group: mode {count} at {hz[0]:.6g} Hz and "
-            f"the next at {hz[1]:.6g} Hz (relative split {split:.1e}); the solver chooses which "
-            f"combination is kept: ask for {count + 1} or more so the group is whole")
 
 
 def solve_free_free(model: FEModel, cfg: ModesConfig, progress: Progress = quiet,
@@ -293,16 +293,16 @@ def solve_free_free(model: FEModel, cfg: ModesConfig, progress: Progress = quiet
              f"{shift.sigma:.4g}, rigid modes deflated")
     t0 = time.perf_counter()
     found = krylov_modes(model, wanted, shift, rigid, cfg, progress)
-    timings["eigensolve"] = time.perf_counter() - t0
+    timings["inertia_check"] = found.inertia_seconds
+    timings["eigensolve"] = time.perf_counter() - t0 - found.inertia_seconds
 
     t0 = time.perf_counter()
     vectors = np.hstack([rigid, found.vectors])
     K_rigid = mat_dense(model.K, rigid)
     values = np.concatenate([np.diag(gram(model.comm, rigid, K_rigid)), found.eigenvalues])
-    check_shift = 0.5 * (values[-1] + found.next_eigenvalue)
-    verification = verify(model, values, vectors, cfg.tolerance, shift.sigma, check_shift,
-                          timings=timings)
-    timings["verification"] = time.perf_counter() - t0 - timings["inertia_check"]
+    verification = verify(model, values, vectors, cfg.tolerance, shift.sigma,
+                          found.check_shift, found.inertia_count)
+    timings["verification"] = time.perf_counter() - t0
     warning = cut_cluster_warning(values[-1], found.next_eigenvalue, wanted)
     if warning:
         progress(f"warning: {warning}")

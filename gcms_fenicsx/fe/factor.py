@@ -1,4 +1,8 @@
 """One sparse LDLᵀ of K − σM with MUMPS: the shift-invert factor and Sylvester's inertia count.
+
+A count at a second shift reuses the first factorisation's ordering and symbolic analysis
+(:func:`inertia_refactorised`): K − σM and K − σ'M have one sparsity pattern, so only the
+numeric phase runs again.
 """
 from __future__ import annotations
 
@@ -50,4 +54,20 @@ def inertia_below(model: FEModel, sigma: float) -> int:
     ksp = factorised(model, sigma)
     negative, _, _ = ksp.getPC().getFactorMatrix().getInertia()
     ksp.destroy()
+    return int(negative)
+
+
+def inertia_refactorised(ksp: PETSc.KSP, model: FEModel, sigma: float, shift: float) -> int:
+    """Number of eigenvalues of (K, M) below ``shift``, from ``ksp``'s factorisation of K − σM
+    refactorised numerically at K − shift·M: MUMPS keeps its ordering and symbolic analysis
+    (the pattern is the same), so this costs about half a new factorisation (0.40 s against
+    0.73–0.87 s on the default crankshaft's 82k DOFs). The count is the same exact inertia
+    as :func:`inertia_below`'s; the factor of K − σM is gone afterwards.
+    """
+    A, P = ksp.getOperators()
+    P.axpy(sigma - shift, model.M, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+    P.stateIncrease()  # PETSc 3.18's parallel MatAXPY leaves the state: the PC would not refactor
+    ksp.setOperators(A, P)
+    ksp.setUp()
+    negative, _, _ = ksp.getPC().getFactorMatrix().getInertia()
     return int(negative)

@@ -1,29 +1,44 @@
 """Free-free modes on disk: the ``modes.json`` summary and mode shapes ParaView opens.
 
-Mode shapes go to a VTK collection (``.pvd`` + ``.vtu``) with arbitrary-order Lagrange
-cells, so P2 shapes are written at every P2 node; each elastic mode is one "time step"
-numbered from 1, the rigid modes are left out.
+Mode shapes go to ``mode_shapes/mode_shapes.xdmf`` with its binary HDF5 beside it
+(``mode_shapes.h5``): the mesh once, then each elastic mode as one "time step" numbered from
+1 (the rigid modes are left out), P_k shapes at every P_k node of the order-k mesh. They are
+written only when a study asks (``[outputs] mode_shapes = true``), from the modal basis
+(mesh file node order), so cached modes serve as well as freshly solved ones.
 """
 from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 from dolfinx import fem, io
 
 from gcms_fenicsx.fe.modes import Modes
 from gcms_fenicsx.fe.assembly import FEModel
+from gcms_fenicsx.fe.node_order import input_node_indices
+
+#: Where the mode shapes go inside ``--out``.
+MODE_SHAPES_FILE = Path("mode_shapes") / "mode_shapes.xdmf"
 
 
-def write_mode_shapes(model: FEModel, modes: Modes, path: Path) -> None:
-    """Write every elastic mode shape (M-normalised displacement) to ``path`` (a ``.pvd``;
-    its ``.pvtu``/``.vtu`` pieces go beside it, so give it a folder of its own)."""
-    u = fem.Function(model.V, name="mode_shape")
-    owned = modes.vectors.shape[0]
-    with io.VTKFile(model.comm, str(path), "w") as vtk:
-        for j in range(modes.elastic_vectors.shape[1]):
-            u.x.array[:owned] = modes.elastic_vectors[:, j]
+def write_mode_shapes(mesh, mode_fields: np.ndarray, path: Path) -> None:
+    """Write every elastic mode shape to the XDMF file ``path`` (HDF5 beside it), collectively.
+
+    ``mode_fields`` (N, 3, Nm): node (mesh file order), direction, mode — every rank's copy
+    (``ModalBasis.mode_fields``); each rank writes its owned nodes' rows.
+    """
+    V = fem.VectorFunctionSpace(mesh, ("CG", mesh.geometry.cmap.degree))
+    Vs, _ = V.sub(0).collapse()
+    rows = input_node_indices(Vs)
+    u = fem.Function(V, name="mode_shape")
+    owned = 3 * len(rows)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with io.XDMFFile(mesh.comm, str(path), "w") as xdmf:
+        xdmf.write_mesh(mesh)
+        for j in range(mode_fields.shape[2]):
+            u.x.array[:owned] = mode_fields[rows, :, j].ravel()
             u.x.scatter_forward()
-            vtk.write_function(u, float(j + 1))
+            xdmf.write_function(u, float(j + 1))
 
 
 def modes_report(model: FEModel, modes: Modes, timings_s: dict[str, float]) -> dict:
@@ -51,10 +66,3 @@ def modes_report(model: FEModel, modes: Modes, timings_s: dict[str, float]) -> d
         "warnings": list(modes.warnings),
         "timings_s": {**timings_s, **modes.timings_s},
     }
-
-
-def frequency_table(modes: Modes) -> str:
-    """A few lines listing the elastic frequencies, for the terminal."""
-    f = modes.elastic_frequencies_hz
-    rows = [f"  {i + 1:3d}  {fi:12.4f} Hz" for i, fi in enumerate(f)]
-    return "\n".join(["  mode    frequency", *rows]) if len(f) else "  (no elastic modes)"

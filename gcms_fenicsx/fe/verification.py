@@ -10,7 +10,6 @@ computed from, stays near ε.
 """
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -18,7 +17,6 @@ from mpi4py import MPI
 
 from gcms_fenicsx.fe.algebra import gram, magnitude_product, mat_dense, max_row_entries
 from gcms_fenicsx.fe.assembly import FEModel
-from gcms_fenicsx.fe.factor import inertia_below
 from gcms_fenicsx.fe.mass import kron_mass_check, mass_dense
 
 EPS = float(np.finfo(float).eps)
@@ -129,12 +127,12 @@ def _norms(comm: MPI.Comm, X: np.ndarray) -> np.ndarray:
 
 
 def verify(model: FEModel, eigenvalues: np.ndarray, vectors: np.ndarray, tolerance: float,
-           sigma: float, check_shift: float, rigid_count: int = 6,
-           timings: dict[str, float] | None = None) -> Verification:
+           sigma: float, check_shift: float, inertia_count: int,
+           rigid_count: int = 6) -> Verification:
     """Measure every check of :class:`Verification` for the pairs (eigenvalues, vectors)
-    against the limits of this problem; the Sylvester count at ``check_shift`` factorises
-    K − σM once (its seconds in ``timings["inertia_check"]``). Collective; raises nothing
-    (see :meth:`Verification.problems`)."""
+    against the limits of this problem, with ``inertia_count`` the Sylvester count of
+    eigenvalues below ``check_shift`` (``factor.inertia_refactorised``). Collective; raises
+    nothing (see :meth:`Verification.problems`)."""
     comm = model.comm
     K_vectors = mat_dense(model.K, vectors)
     M_vectors = mass_dense(model, vectors)
@@ -157,15 +155,11 @@ def verify(model: FEModel, eigenvalues: np.ndarray, vectors: np.ndarray, toleran
     ortho_limit = tolerance + gamma(k_M) * float(magnitude_grams.max())
     rigid = grams[:rigid_count]
     rigid_fractions = np.sum(rigid ** 2, axis=0) / np.diag(grams)
-    t0 = time.perf_counter()
-    inertia = inertia_below(model, check_shift)
-    if timings is not None:
-        timings["inertia_check"] = time.perf_counter() - t0
     defect, defect_limit = kron_mass_check(model, gamma(k_M))
     return Verification(
         backward_errors=backward, backward_error_limit=max(tolerance, gamma(k_K)),
         relative_residuals=relative, orthonormality_error=ortho,
         orthonormality_limit=ortho_limit, rigid_fractions=rigid_fractions,
         rigid_content_limit=rigid_count * ortho_limit ** 2,
-        zero_energy_floor=(tolerance + gamma(k_K)) * abs(sigma), inertia_count=inertia,
+        zero_energy_floor=(tolerance + gamma(k_K)) * abs(sigma), inertia_count=inertia_count,
         solved_count=len(eigenvalues), check_shift=check_shift, mass_kron_defect=defect, mass_kron_limit=defect_limit)

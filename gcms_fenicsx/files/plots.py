@@ -127,25 +127,30 @@ def plot_energy(traj: PlotData, path: Path) -> None:
 
 
 def plot_joints(traj: PlotData, path: Path) -> None:
-    """Every joint's force on the body (magnitude) and its moments, against time."""
+    """Every joint's force on the body (magnitude) and, when a joint constrains a rotation,
+    its moments, against time: a scene of spherical joints only gets no moment panel."""
     plt = _pyplot()
     joints = list(dict.fromkeys(r["joint"] for r in traj.rows))
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
+    moments = [(i, r) for i, r in enumerate(traj.rows) if r["unit"] == "N*m"]
+    fig, axes = plt.subplots(2 if moments else 1, 1, figsize=(9, 6.5 if moments else 3.8),
+                             sharex=True, squeeze=False)
+    top = axes[0, 0]
     for name in joints:
         top.plot(traj.time, np.linalg.norm(traj.joint_force(name), axis=1), label=name)
-        for i, r in enumerate(traj.rows):
-            if r["joint"] == name and r["unit"] == "N*m":
-                axis = np.round(r["axis"], 2).tolist()
-                bottom.plot(traj.time, -traj.multipliers[:, i], lw=0.9,
-                            label=f"{name}: {r['kind'].replace('_', ' ')} about {axis}")
     top.set_ylabel("|joint force on body| [N]")
     top.set_title(f"joints{traj.note}")
     top.legend(loc="best", fontsize=8)
     top.grid(alpha=0.3)
-    bottom.set_ylabel("moment on body [N·m]")
-    bottom.set_xlabel("time [s]")
-    bottom.legend(loc="best", fontsize=7)
-    bottom.grid(alpha=0.3)
+    if moments:
+        bottom = axes[1, 0]
+        for i, r in moments:
+            axis = np.round(r["axis"], 2).tolist()
+            bottom.plot(traj.time, -traj.multipliers[:, i], lw=0.9,
+                        label=f"{r['joint']}: {r['kind'].replace('_', ' ')} about {axis}")
+        bottom.set_ylabel("moment on body [N·m]")
+        bottom.legend(loc="best", fontsize=7)
+        bottom.grid(alpha=0.3)
+    axes[-1, 0].set_xlabel("time [s]")
     _save(plt, fig, path)
 
 

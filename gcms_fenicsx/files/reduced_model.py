@@ -272,11 +272,16 @@ def write_reduced(path: str | Path, model: ReducedModel) -> None:
             f.attrs[name] = text
         for name in _ARRAYS:
             f.create_dataset(name, data=np.asarray(getattr(model, name), dtype=np.float64))
-        groups = f.create_group("groups")
-        for name, g in model.groups.items():
-            groups.create_dataset(f"{name}/nodes", data=g.nodes.astype(np.int64))
-            groups.create_dataset(f"{name}/weights", data=g.weights.astype(np.float64))
+        write_groups(f, model.groups)
         seal(f)
+
+
+def write_groups(f: h5py.File, groups: dict[str, NodeGroup]) -> None:
+    """``/groups/<name>/nodes`` (int64) and ``/groups/<name>/weights`` of every node group."""
+    folder = f.create_group("groups")
+    for name, g in groups.items():
+        folder.create_dataset(f"{name}/nodes", data=g.nodes.astype(np.int64))
+        folder.create_dataset(f"{name}/weights", data=g.weights.astype(np.float64))
 
 
 def read_reduced(path: str | Path) -> ReducedModel:

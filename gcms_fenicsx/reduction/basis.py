@@ -1,15 +1,16 @@
 """GCMS shape vectors as scalar nodal fields: Φ = F ⊗ I3 (reference eqs. (1)–(3), docs/design.md §2).
 
 What this module is for: the field matrix F = [1, X, Y, Z, φ_1^1, φ_1^2, φ_1^3, φ_2^1, …]
-(X measured from the centre of mass), its small Gram matrices G = Fᵀ Ms F and FᵀF, the
-reduced matrices Mr = G ⊗ I3 and Kr = Φᵀ K Φ (from K's stored node blocks, without Φ), and
-the dense Φ only when a caller asks.
+(X measured from the centre of mass), its small Gram matrices G = Fᵀ Ms F and FᵀF,
+Kr = Φᵀ K Φ (from K's stored node blocks, without Φ; Mr = G ⊗ I3 is
+``modal_basis.reduced_mass``), and the dense Φ only when a caller asks.
 Column (f, l) of Φ — field f in direction l — is column 3f + l, which is the reference's
 order: Φt (l), Φr (k, l), then Φf (m, k, l).
 What it is not for: deciding which fields to keep (``selection``).
 
 F's rows are this rank's owned nodes; the Gram and reduced matrices are summed over
-ranks and identical on every rank (they are small).
+ranks and identical on every rank (they are small). :func:`modal_basis` gathers it all on
+rank 0 as the plain product the later stages use.
 """
 from __future__ import annotations
 
@@ -19,12 +20,14 @@ import numpy as np
 import scipy.sparse
 from mpi4py import MPI
 
-from gcms_fenicsx.fe.modes import Modes
 from gcms_fenicsx.fe.algebra import column_rows, gram, mat_dense
 from gcms_fenicsx.fe.assembly import FEModel
-
-RIGID_FIELDS = ("1", "X", "Y", "Z")
-AXES = "xyz"
+from gcms_fenicsx.fe.mesh import BodyMesh
+from gcms_fenicsx.fe.modes import Modes
+from gcms_fenicsx.fe.node_groups import group_weights
+from gcms_fenicsx.fe.node_order import input_node_indices
+from gcms_fenicsx.files.reduced_model import NodeGroup
+from gcms_fenicsx.reduction.modal_basis import AXES, ModalBasis, field_names, symmetric
 
 
 @dataclass(frozen=True)
@@ -52,12 +55,6 @@ class FieldBasis:
         return [f"{self.names[f]}>{AXES[l]}" for f in idx for l in range(3)]
 
 
-def field_names(mode_count: int) -> tuple[str, ...]:
-    """'1', 'X', 'Y', 'Z', then 'phi{m}_{k}' for mode m (1-based) and component k ∈ {x, y, z}."""
-    return RIGID_FIELDS + tuple(f"phi{m + 1}_{AXES[k]}" for m in range(mode_count)
-                                for k in range(3))
-
-
 def field_basis(model: FEModel, modes: Modes) -> FieldBasis:
     """F from the undeformed node coordinates and the elastic mode shapes (eqs. (1)–(3) as fields)."""
     center = modes.center_m
@@ -80,11 +77,6 @@ def phi_dense(fields: np.ndarray) -> np.ndarray:
     for l in range(3):
         Phi[:, l, :, l] = fields
     return Phi.reshape(3 * n, 3 * nf)
-
-
-def reduced_mass(gram_mass: np.ndarray) -> np.ndarray:
-    """Mr = Φᵀ M Φ = (Fᵀ Ms F) ⊗ I3, since M = Ms ⊗ I3 (docs/design.md §2)."""
-    return np.kron(gram_mass, np.eye(3))
 
 
 def reduced_stiffness(model: FEModel, fields: np.ndarray) -> np.ndarray:
@@ -139,6 +131,34 @@ def reduced_stiffness(model: FEModel, fields: np.ndarray) -> np.ndarray:
     return symmetric(model.comm.allreduce(local.reshape(3 * nf, 3 * nf), op=MPI.SUM))
 
 
-def symmetric(A: np.ndarray) -> np.ndarray:
-    """(A + Aᵀ)/2."""
-    return 0.5 * (A + A.T)
+def modal_basis(model: FEModel, modes: Modes, body: BodyMesh) -> ModalBasis | None:
+    """The body's :class:`~gcms_fenicsx.reduction.modal_basis.ModalBasis` on rank 0 (None on
+    the others): F of every field with G, FᵀF and Kr of all of them (collective), the node
+    groups, and the rows gathered in the mesh file's node order (``fe.node_order``), so one
+    and two ranks give the same basis."""
+    comm = model.comm
+    local = field_basis(model, modes)
+    stiffness = reduced_stiffness(model, local.fields)
+    groups = group_weights(body, model.Vs)
+    index = comm.gather(input_node_indices(model.Vs), root=0)
+    fields = comm.gather(local.fields, root=0)
+    nodes = comm.gather(model.nodes, root=0)
+    if comm.rank != 0:
+        return None
+    rows = np.argsort(np.concatenate(index), kind="stable")  # gathered row of file node i
+    position = np.empty_like(rows)
+    position[rows] = np.arange(len(rows))                       # file position of gathered row
+    return ModalBasis(
+        fields=np.vstack(fields)[rows], nodes_m=np.vstack(nodes)[rows],
+        gram_mass=local.gram_mass, gram_euclid=local.gram_euclid, stiffness=stiffness,
+        eigenvalues=modes.eigenvalues.copy(), rigid_count=modes.rigid_count,
+        center_m=np.asarray(modes.center_m, dtype=float),
+        groups={name: _in_file_order(position, nodes_g, weights)
+                for name, (nodes_g, weights) in groups.items()})
+
+
+def _in_file_order(position: np.ndarray, nodes: np.ndarray, weights: np.ndarray) -> NodeGroup:
+    """A group of gathered rows renumbered to file positions, ascending."""
+    renumbered = position[nodes]
+    order = np.argsort(renumbered)
+    return NodeGroup(nodes=renumbered[order].astype(np.int64), weights=weights[order])

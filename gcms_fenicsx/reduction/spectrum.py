@@ -49,3 +49,18 @@ def clusters(lam: np.ndarray) -> list[dict]:
                         "frequency_hz": float(np.sqrt(lam[g].mean()) / (2 * np.pi))})
         index = group.stop
     return out
+
+
+def cut_cluster_warning(last: float, following: float, count: int) -> str | None:
+    """A warning when the last wanted eigenvalue and the next are chained into one cluster
+    (``reduction.spectrum``):
+    the count then keeps an arbitrary part of a (near-)repeated group, chosen by the solver,
+    so the reduced basis is not continuous in the body's shape (a square beam's bending pair
+    kept half, docs/stability.md)."""
+    if not chained(last, following):
+        return None
+    split = (following - last) / following
+    hz = np.sqrt(np.array([last, following])) / (2 * np.pi)
+    return (f"{count} elastic modes cut a near-repeated group: mode {count} at {hz[0]:.6g} Hz and "
+            f"the next at {hz[1]:.6g} Hz (relative split {split:.1e}); the solver chooses which "
+            f"combination is kept: ask for {count + 1} or more so the group is whole")

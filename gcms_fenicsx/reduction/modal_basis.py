@@ -1,0 +1,92 @@
+"""The modal basis of one body as plain data: every GCMS field at every node with its small
+matrices, the product the selection and the reduced model are made from, and what
+``modes.h5`` keeps (docs/design.md §2, §4).
+
+F = [1, X, Y, Z, φ_1^x, φ_1^y, φ_1^z, φ_2^x, …] holds every candidate scalar field at every
+node, rows in the mesh file's node order (the same on any number of ranks); beside it the
+small matrices every later stage needs: G = Fᵀ Ms F, FᵀF and Kr = Φᵀ K Φ of all fields
+(Φ = F ⊗ I3), so the selection and the reduced matrices of any kept subset need neither
+the mesh nor K (for fields F T: Mr = (Tᵀ G T) ⊗ I3, Kr = (T ⊗ I3)ᵀ Kr_all (T ⊗ I3)).
+The fields of the lowest k modes are the first 4 + 3k, so a basis of fewer modes is a
+leading block (:meth:`ModalBasis.lowest`). NumPy only.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from gcms_fenicsx.files.reduced_model import NodeGroup
+
+RIGID_FIELDS = ("1", "X", "Y", "Z")
+AXES = "xyz"
+
+
+def field_names(mode_count: int) -> tuple[str, ...]:
+    """'1', 'X', 'Y', 'Z', then 'phi{m}_{k}' for mode m (1-based) and component k ∈ {x, y, z}."""
+    return RIGID_FIELDS + tuple(f"phi{m + 1}_{AXES[k]}" for m in range(mode_count)
+                                for k in range(3))
+
+
+@dataclass(frozen=True)
+class ModalBasis:
+    """Every candidate field of one body and the small matrices of all of them.
+
+    ``fields`` (N, 4 + 3 Nm) and ``nodes_m`` (N, 3) in the mesh file's node order;
+    ``gram_mass`` = Fᵀ Ms F and ``gram_euclid`` = Fᵀ F (fields²); ``stiffness`` Kr of all
+    fields (3 fields)², column (f, l) = 3f + l; ``eigenvalues`` the free-free eigenvalues,
+    ``rigid_count`` rigid first; ``center_m`` the centre of mass X is measured from;
+    ``groups`` the surface groups' nodes (rows of F) and weights.
+    """
+
+    fields: np.ndarray
+    nodes_m: np.ndarray
+    gram_mass: np.ndarray
+    gram_euclid: np.ndarray
+    stiffness: np.ndarray
+    eigenvalues: np.ndarray
+    rigid_count: int
+    center_m: np.ndarray
+    groups: dict[str, NodeGroup]
+
+    @property
+    def mode_count(self) -> int:
+        return len(self.eigenvalues) - self.rigid_count
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return field_names(self.mode_count)
+
+    @property
+    def field_count(self) -> int:
+        return self.fields.shape[1]
+
+    @property
+    def elastic_frequencies_hz(self) -> np.ndarray:
+        """f = √λ / 2π of the elastic modes."""
+        return np.sqrt(np.maximum(self.eigenvalues[self.rigid_count:], 0.0)) / (2.0 * np.pi)
+
+    def lowest(self, count: int) -> "ModalBasis":
+        """The basis of the rigid and the lowest ``count`` elastic modes: leading blocks."""
+        if not 0 < count <= self.mode_count:
+            raise ValueError(f"{count} modes asked of a basis of {self.mode_count}")
+        nf = len(RIGID_FIELDS) + 3 * count
+        return replace(self, fields=self.fields[:, :nf], gram_mass=self.gram_mass[:nf, :nf],
+                       gram_euclid=self.gram_euclid[:nf, :nf],
+                       stiffness=self.stiffness[:3 * nf, :3 * nf],
+                       eigenvalues=self.eigenvalues[:self.rigid_count + count])
+
+    def mode_fields(self) -> np.ndarray:
+        """The elastic mode shapes (N, 3, Nm): node, direction, mode."""
+        n = self.fields.shape[0]
+        return self.fields[:, len(RIGID_FIELDS):].reshape(n, -1, 3).transpose(0, 2, 1)
+
+
+def symmetric(A: np.ndarray) -> np.ndarray:
+    """(A + Aᵀ)/2."""
+    return 0.5 * (A + A.T)
+
+
+def reduced_mass(gram_mass: np.ndarray) -> np.ndarray:
+    """Mr = Φᵀ M Φ = (Fᵀ Ms F) ⊗ I3, since M = Ms ⊗ I3 (docs/design.md §2)."""
+    return np.kron(gram_mass, np.eye(3))

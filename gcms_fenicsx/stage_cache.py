@@ -1,0 +1,207 @@
+"""The stage cache: which products in ``--out`` a command may reuse instead of computing.
+
+Each stage's product is kept in ``--out`` with the key of exactly the tables it depends on
+and a content checksum:
+
+- the mesh, ``mesh.msh``: key ``input_digest`` = [geometry] + [mesh], and ``msh_sha256``,
+  both in ``mesh.json``;
+- the free-free modes with the modal basis, ``modes.h5`` (``files.modes_file``): key
+  [geometry] + [mesh] + [material] + the solve's accuracy (``StudyConfig.modes_key``), not
+  the mode count: a file with more modes than asked serves, restricted to the lowest ones
+  (a leading block), and one whose verified Sylvester count reaches past
+  ``max_frequency_hz`` serves that band;
+- the reduced model, ``reduced.h5``: key ``input_hash`` over REDUCED_MODEL_TABLES.
+
+A product whose key differs, whose checksum does not match or that cannot be read is
+never used: the command says why in a progress line and computes it again. The plan is
+made before anything runs (rank 0), so the command knows which files it will replace.
+The simulation always runs: it is what a scene asks for. NumPy and h5py only.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from gcms_fenicsx.config.study import MESH_TABLES, REDUCED_MODEL_TABLES, StudyConfig
+from gcms_fenicsx.files.modes_file import ModesFileError, StoredModes, read_modes
+from gcms_fenicsx.files.reduced_model import ReducedModel, ReducedModelError, read_reduced
+from gcms_fenicsx.reduction.spectrum import clusters, cut_cluster_warning
+from gcms_fenicsx.runtime.progress import Progress
+from geometry.info import MeshInfo
+
+#: Files of each reusable stage, and of the stages above it that a reuse skips.
+MESH_PRODUCT = ("mesh.msh", "mesh.json")
+MODES_PRODUCT = (*MESH_PRODUCT, "modes.h5")
+REDUCED_PRODUCT = (*MODES_PRODUCT, "modes.json", "reduced.h5", "selection.json")
+
+
+@dataclass(frozen=True)
+class CachedMesh:
+    """A reusable mesh: the .msh file, what Gmsh reported, and its mesh.json document."""
+
+    msh_path: Path
+    info: MeshInfo
+    document: dict
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What a command reuses (None: computed): the same on every rank."""
+
+    mesh: CachedMesh | None = None
+    modes: StoredModes | None = None
+    reduced: ReducedModel | None = None
+
+    def kept(self) -> tuple[str, ...]:
+        """The files of ``--out`` this plan leaves as they are."""
+        if self.reduced is not None and self.modes is None and self.mesh is None:
+            return REDUCED_PRODUCT
+        reused = MODES_PRODUCT if self.modes is not None else \
+            MESH_PRODUCT if self.mesh is not None else ()
+        return reused + (("reduced.h5", "selection.json") if self.reduced is not None else ())
+
+
+def owned_files(plan: Plan, owns: tuple[str, ...]) -> tuple[str, ...]:
+    """The files of ``owns`` the command replaces, or removes if it does not write them."""
+    return tuple(name for name in owns if name not in plan.kept())
+
+
+def file_sha256(path: Path) -> str:
+    """SHA-256 of a file's bytes, read in blocks."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def plan(cfg: StudyConfig, out: Path, upto: str, fresh: bool, progress: Progress) -> Plan:
+    """What to reuse for a command that needs the stages up to ``upto`` ("mesh", "modes",
+    "reduced"): the furthest reusable product, and nothing above it that it makes
+    unnecessary. Mode shapes asked for (``[outputs]``) need the modes and the mesh."""
+    out = Path(out)
+    if fresh:
+        progress("--fresh: every stage is computed, nothing in the output folder is reused")
+        return Plan()
+    shapes = cfg.outputs.mode_shapes and upto != "mesh"
+    reduced = cached_reduced(cfg, out, progress) if upto == "reduced" else None
+    if reduced is not None and not shapes:
+        return Plan(reduced=reduced)
+    modes = cached_modes(cfg, out, progress) if upto != "mesh" else None
+    if modes is not None and not shapes:
+        return Plan(modes=modes, reduced=reduced)
+    return Plan(mesh=cached_mesh(cfg, out, progress), modes=modes, reduced=reduced)
+
+
+def cached_mesh(cfg: StudyConfig, out: Path, progress: Progress) -> CachedMesh | None:
+    """``out/mesh.msh`` if mesh.json says it was made from this study's [geometry] and [mesh]
+    and its checksum matches, else None."""
+    msh, record = out / "mesh.msh", out / "mesh.json"
+    if not (msh.is_file() and record.is_file()):
+        return None
+    try:
+        document = json.loads(record.read_text())
+        key, checksum = document["input_digest"], document.get("msh_sha256")
+        info = MeshInfo.from_json(document["geometry"])
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        progress(f"mesh: {record} cannot be read ({exc}); meshing again")
+        return None
+    if key != cfg.digest(*MESH_TABLES):
+        progress(f"mesh: {msh} was made from other [geometry] or [mesh] values; meshing again")
+        return None
+    if checksum != file_sha256(msh):
+        progress(f"mesh: {msh} does not match the checksum in {record.name} (changed or "
+                 "damaged); meshing again")
+        return None
+    progress(f"mesh: reusing {msh} ({info.nodes} nodes; inputs unchanged)")
+    return CachedMesh(msh_path=msh, info=info, document=document)
+
+
+def cached_modes(cfg: StudyConfig, out: Path, progress: Progress) -> StoredModes | None:
+    """``out/modes.h5`` restricted to the modes this study asks for, if it was solved from
+    the same inputs and holds them all, intact; else None."""
+    path = out / "modes.h5"
+    if not path.is_file():
+        return None
+    try:
+        stored = read_modes(path)
+    except ModesFileError as exc:
+        progress(f"modes: {exc}; solving again")
+        return None
+    if stored.key != cfg.modes_key():
+        progress(f"modes: {path} was solved from other [geometry], [mesh], [material] or "
+                 "[modes] accuracy values; solving again")
+        return None
+    held = stored.basis.mode_count
+    if cfg.modes.count is not None:
+        count = cfg.modes.count
+        if count > held:
+            progress(f"modes: {path} holds {held} elastic modes, {count} asked; solving again")
+            return None
+    else:
+        cut = (2.0 * np.pi * cfg.modes.max_frequency_hz) ** 2
+        verified = stored.document["verification"]["sylvester"]["shift"]
+        elastic = stored.basis.eigenvalues[stored.basis.rigid_count:]
+        count = int(np.count_nonzero(elastic < cut))
+        if cfg.modes.auto:
+            count = max(count, 1)
+        if cut >= verified or count < 1:
+            progress(f"modes: {path} does not cover every mode below "
+                     f"{cfg.modes.max_frequency_hz:g} Hz; solving again")
+            return None
+    progress(f"modes: reusing {path} ({count} of its {held} elastic modes; inputs unchanged)")
+    return restricted(stored, count)
+
+
+def restricted(stored: StoredModes, count: int) -> StoredModes:
+    """The rigid and the lowest ``count`` elastic modes of ``stored``, with the modes.json
+    document of those modes (the Sylvester check of the whole solve covers them)."""
+    basis = stored.basis.lowest(count)
+    held, rigid = stored.basis.mode_count, basis.rigid_count
+    doc = dict(stored.document)
+    keep = rigid + count
+    for name in ("eigenvalues_rad2_s2", "relative_residuals", "rigid_fractions"):
+        doc[name] = doc[name][:keep]
+    doc["elastic_frequencies_hz"] = doc["elastic_frequencies_hz"][:count]
+    verification = json.loads(json.dumps(doc["verification"]))
+    backward = verification["backward_error"]
+    backward["per_mode"] = backward["per_mode"][:keep]
+    backward["measured"] = max(backward["per_mode"])
+    verification["rigid_content"]["measured"] = max(doc["rigid_fractions"][rigid:], default=0.0)
+    doc.update(verification=verification, elastic_mode_count=count,
+               max_relative_residual=max(doc["relative_residuals"]),
+               max_backward_error=backward["measured"],
+               repeated_eigenvalues=clusters(basis.eigenvalues[rigid:]),
+               cached_elastic_mode_count=held)
+    if count < held:
+        ev = stored.basis.eigenvalues
+        warning = cut_cluster_warning(ev[keep - 1], ev[keep], count)
+        doc["warnings"] = [w for w in doc["warnings"] if "near-repeated group" not in w] + \
+            ([warning] if warning else [])
+    return replace(stored, basis=basis, document=doc)
+
+
+def cached_reduced(cfg: StudyConfig, out: Path, progress: Progress) -> ReducedModel | None:
+    """``out/reduced.h5`` if it was made from this study's upstream tables, intact, else None
+    (with a progress line saying why it is rebuilt)."""
+    path = out / "reduced.h5"
+    if not path.is_file():
+        return None
+    try:
+        model = read_reduced(path)
+    except ReducedModelError as exc:
+        progress(f"reduced model: {path} cannot be used ({exc}); rebuilding it")
+        return None
+    if not model.checksummed:
+        progress(f"reduced model: {path} has no content checksums (schema "
+                 f"{model.schema_version}, an older gcms-fenicsx); rebuilding it")
+        return None
+    if model.input_hash != cfg.digest(*REDUCED_MODEL_TABLES):
+        progress(f"reduced model: {path} was made from other inputs; rebuilding it")
+        return None
+    progress(f"reduced model: reusing {path} ({model.dofs} coordinates; inputs unchanged)")
+    return model

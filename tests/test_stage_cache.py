@@ -1,0 +1,208 @@
+"""The stage cache of ``--out``: every stage reused while its inputs are unchanged and its
+product intact, recomputed otherwise, nothing else run; ``--fresh``; a damaged, stale or
+interrupted entry never used; one and two ranks give the same cache."""
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from beams import beam_study
+from conftest import REPO, gcms, mpirun
+from gcms_fenicsx.files.modes_file import read_modes
+from gcms_fenicsx.files.reduced_model import read_reduced
+from test_interrupts import SLOW, snapshot
+
+
+def stages(out: Path, report: str = "selection.json") -> dict[str, str]:
+    return {name: s["status"] for name, s in json.loads((out / report).read_text())["stages"].items()}
+
+
+def stamps(out: Path) -> dict[str, int]:
+    return {p.name: p.stat().st_mtime_ns for p in out.iterdir() if p.is_file()}
+
+
+@pytest.fixture
+def cached(tmp_path):
+    """A study of the test beam with 6 modes, reduced once into ``out``."""
+    config, out = tmp_path / "study.toml", tmp_path / "out"
+    config.write_text(beam_study(6))
+    run = gcms("reduce", str(config), "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    assert stages(out) == {"mesh": "computed", "modes": "computed", "reduction": "computed"}
+    return config, out
+
+
+def test_each_change_reruns_only_the_stages_below_it(cached):
+    """[selection] alone: no mesh, no solve, mesh.msh and modes.h5 untouched; fewer modes:
+    the cached solve restricted, the same frequencies; more modes: solved again on the
+    cached mesh; [material]: solved again, the mesh reused."""
+    config, out = cached
+    text = config.read_text()
+    before = stamps(out)
+    full = read_modes(out / "modes.h5").basis
+
+    config.write_text(text.replace("[selection]", "[selection]\nsvd_tolerance = 1e-5"))
+    run = gcms("reduce", str(config), "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    assert stages(out) == {"mesh": "reused", "modes": "reused", "reduction": "computed"}
+    assert "eigen-solve" not in run.stderr and "geometry and mesh" not in run.stderr
+    after = stamps(out)
+    assert after["mesh.msh"] == before["mesh.msh"] and after["modes.h5"] == before["modes.h5"]
+    assert after["reduced.h5"] != before["reduced.h5"]
+
+    config.write_text(text.replace("count = 6", "count = 4"))
+    run = gcms("reduce", str(config), "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    assert stages(out)["modes"] == "reused" and "4 of its 6 elastic modes" in run.stderr
+    modes = json.loads((out / "modes.json").read_text())
+    np.testing.assert_array_equal(modes["elastic_frequencies_hz"], full.elastic_frequencies_hz[:4])
+    assert read_reduced(out / "reduced.h5").frequencies_hz.size == 4
+
+    config.write_text(text.replace("count = 6", "count = 8"))
+    run = gcms("reduce", str(config), "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    assert stages(out) == {"mesh": "reused", "modes": "computed", "reduction": "computed"}
+    assert "holds 6 elastic modes, 8 asked" in run.stderr
+    more = read_modes(out / "modes.h5").basis
+    np.testing.assert_allclose(more.elastic_frequencies_hz[:6], full.elastic_frequencies_hz,
+                               rtol=1e-9)  # two solves, each to the Krylov tolerance 1e-10
+
+    config.write_text(text.replace("[modes]", "[material]\nE = 105e9\n\n[modes]"))
+    run = gcms("reduce", str(config), "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    assert stages(out) == {"mesh": "reused", "modes": "computed", "reduction": "computed"}
+
+
+def test_fresh_recomputes_every_stage_with_the_same_result(cached):
+    config, out = cached
+    first = read_reduced(out / "reduced.h5")
+    run = gcms("reduce", str(config), "--out", str(out), "--fresh")
+    assert run.returncode == 0, run.stderr
+    assert "--fresh" in run.stderr
+    assert stages(out) == {"mesh": "computed", "modes": "computed", "reduction": "computed"}
+    again = read_reduced(out / "reduced.h5")
+    np.testing.assert_allclose(again.reduced_frequencies_hz, first.reduced_frequencies_hz,
+                               rtol=1e-9)
+
+
+def _flip_a_byte(path: Path, dataset: str) -> None:
+    import h5py
+    with h5py.File(path, "r") as f:
+        offset = f[dataset].id.get_offset()
+    with open(path, "r+b") as f:
+        f.seek(offset + 8)
+        byte = f.read(1)
+        f.seek(offset + 8)
+        f.write(bytes([byte[0] ^ 0x01]))
+
+
+@pytest.mark.parametrize("damage", ["modes.h5 bit", "mesh.msh bit", "mesh.json key"])
+def test_a_damaged_or_stale_entry_is_never_used(cached, damage):
+    """One flipped bit in modes.h5's matrices or in mesh.msh, or a mesh.json from other inputs:
+    the entry is refused with the reason, and recomputed."""
+    config, out = cached
+    if damage == "modes.h5 bit":
+        _flip_a_byte(out / "modes.h5", "stiffness")
+        (out / "reduced.h5").unlink()  # else the intact reduced model spares the modes
+    elif damage == "mesh.msh bit":
+        with open(out / "mesh.msh", "r+b") as f:
+            f.seek(2000)
+            byte = f.read(1)
+            f.seek(2000)
+            f.write(bytes([byte[0] ^ 0x04]))
+        for name in ("reduced.h5", "modes.h5"):
+            (out / name).unlink()
+    else:
+        record = json.loads((out / "mesh.json").read_text())
+        record["input_digest"] = "0" * 64
+        (out / "mesh.json").write_text(json.dumps(record))
+        for name in ("reduced.h5", "modes.h5"):
+            (out / name).unlink()
+    run = gcms("reduce", str(config), "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    expected = {"modes.h5 bit": "does not match its checksum",
+                "mesh.msh bit": "does not match the checksum in mesh.json",
+                "mesh.json key": "was made from other [geometry] or [mesh] values"}[damage]
+    assert expected in run.stderr, run.stderr
+    computed = stages(out)
+    assert computed["modes"] == "computed"
+    assert computed["mesh"] == ("reused" if damage == "modes.h5 bit" else "computed")
+    read_modes(out / "modes.h5")  # the new entry is intact
+
+
+def test_an_interrupted_solve_leaves_the_cache_valid(tmp_path):
+    """SIGINT during the eigen-solve of ``gcms modes`` (its mesh reused): --out as it was, and
+    the next command still reuses the cached mesh."""
+    config, out = tmp_path / "slow.toml", tmp_path / "out"
+    config.write_text(SLOW)
+    assert gcms("mesh", str(config), "--out", str(out)).returncode == 0
+    before = snapshot(out)
+    child = subprocess.Popen([sys.executable, "-m", "gcms_fenicsx.cli", "modes", str(config),
+                              "--out", str(out)], cwd=REPO, stderr=subprocess.PIPE, text=True)
+    for line in child.stderr:
+        if "eigen-solve:" in line:
+            time.sleep(1.0)
+            child.send_signal(signal.SIGINT)
+            break
+    child.communicate(timeout=120)
+    assert child.returncode == 128 + signal.SIGINT
+    assert snapshot(out) == before
+    again = gcms("mesh", str(config), "--out", str(out))
+    assert again.returncode == 0 and "mesh: reusing" in again.stderr, again.stderr
+    assert snapshot(out) == before
+
+
+@pytest.mark.mpi
+def test_two_ranks_give_the_same_cache_as_one(tmp_path):
+    """modes.h5 solved on two ranks holds the serial one's basis (rows in the mesh file's
+    order, each mode up to its sign, to the solver's accuracy), and a serial command reuses it."""
+    config = tmp_path / "study.toml"
+    config.write_text(beam_study(6))
+    one, two = tmp_path / "one", tmp_path / "two"
+    assert gcms("modes", str(config), "--out", str(one)).returncode == 0
+    run = mpirun(["-m", "gcms_fenicsx.cli", "modes", str(config), "--out", str(two)])
+    assert run.returncode == 0, run.stderr
+    a, b = read_modes(one / "modes.h5"), read_modes(two / "modes.h5")
+    assert a.key == b.key
+    A, B = a.basis, b.basis
+    # the same nodes in the same order; their coordinates evaluated per rank: 8e-16 m apart
+    np.testing.assert_allclose(B.nodes_m, A.nodes_m, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(B.eigenvalues[6:], A.eigenvalues[6:], rtol=1e-9)
+    for name, g in A.groups.items():
+        np.testing.assert_array_equal(B.groups[name].nodes, g.nodes)
+        np.testing.assert_allclose(B.groups[name].weights, g.weights, rtol=1e-12)
+    modes_a, modes_b = A.mode_fields(), B.mode_fields()
+    for j in range(A.mode_count):
+        sign = np.sign(np.sum(modes_a[:, :, j] * modes_b[:, :, j]))
+        np.testing.assert_allclose(sign * modes_b[:, :, j], modes_a[:, :, j], rtol=0,
+                                   atol=1e-6 * np.abs(modes_a[:, :, j]).max())
+    run = gcms("reduce", str(config), "--out", str(two))
+    assert run.returncode == 0, run.stderr
+    assert stages(two) == {"mesh": "reused", "modes": "reused", "reduction": "computed"}
+
+
+def test_auto_count_reports_its_band_and_reuses_a_larger_solve(tmp_path):
+    """count = "auto" on the cantilever scene (no excitation: the band is what its 1 ms step
+    resolves, 100 Hz, below the beam's first mode): one mode, the band in modes.json; the
+    modes come from the cached solve of six."""
+    from simulate_runs import SCENE
+
+    config, out = tmp_path / "study.toml", tmp_path / "out"
+    config.write_text(beam_study(6) + SCENE)
+    assert gcms("reduce", str(config), "--out", str(out)).returncode == 0
+    config.write_text(beam_study(6).replace("count = 6", 'count = "auto"') + SCENE)
+    run = gcms("reduce", str(config), "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    modes = json.loads((out / "modes.json").read_text())
+    assert modes["band"]["set_by"] == "time step"
+    assert modes["band"]["max_frequency_hz"] == pytest.approx(100.0)
+    assert modes["band"]["modes"] == modes["elastic_mode_count"] == 1
+    assert modes["elastic_frequencies_hz"][0] > 100.0
+    assert stages(out)["modes"] == "reused"
