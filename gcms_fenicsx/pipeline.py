@@ -116,10 +116,21 @@ def assembly_stage(mesh: Any, material: Material, degree: int | None = None,
 
 
 def modes_stage(model: FEModel, settings: ModesConfig, progress: Progress = quiet,
-                memory_check: Callable[[int, int, int], None] | None = None) -> Modes:
-    """The six rigid and the requested elastic modes, verified (``fe.eigensolve``)."""
+                memory_check: Callable[[int, int, int], None] | None = None,
+                body: BodyMesh | None = None) -> Modes:
+    """The six rigid and the requested elastic modes, verified (``fe.eigensolve``), and the
+    attachment modes ``settings.attachment`` asks for (at groups of ``body``)."""
     from gcms_fenicsx.fe.eigensolve import solve_free_free
-    return solve_free_free(model, settings, progress, memory_check)
+    if not settings.attachment:
+        return solve_free_free(model, settings, progress, memory_check)
+    from dataclasses import replace
+
+    from gcms_fenicsx.fe.attachment import attachment_loads
+    if body is None:
+        raise ValueError("attachment modes need the body's node groups: pass body")
+    loads = attachment_loads(model, body, settings.attachment)
+    modes = solve_free_free(model, settings, progress, memory_check, loads)
+    return replace(modes, attachment_labels=tuple(a.label for a in settings.attachment))
 
 
 @dataclass(frozen=True)
@@ -140,7 +151,7 @@ def free_free(geometry: Geometry, mesh: MeshParams, material: Material, settings
     body = body_mesh(product, comm)
     assembly = assembly_stage(body.mesh, material, progress=progress)
     return FreeFree(product, body, assembly,
-                    modes_stage(assembly.model, settings, progress, memory_check))
+                    modes_stage(assembly.model, settings, progress, memory_check, body))
 
 
 def basis_stage(model: FEModel, modes: Modes, body: BodyMesh, progress: Progress = quiet

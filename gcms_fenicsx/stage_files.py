@@ -168,7 +168,7 @@ def _modes(cfg: StudyConfig, folder: Path, progress: Progress, comm: Any,
         mesh_doc = _document(cfg, product, assembly.mass_properties.to_json(),
                              assembly.mass_time_s, comm)
     modes = pipeline.modes_stage(assembly.model, cfg.modes, progress,
-                                 memory_check=partial(_check_memory, cfg))
+                                 memory_check=partial(_check_memory, cfg), body=body)
     t1 = time.perf_counter()
     basis = pipeline.basis_stage(assembly.model, modes, body, progress)
     fields_s = time.perf_counter() - t1
@@ -183,6 +183,7 @@ def _modes(cfg: StudyConfig, folder: Path, progress: Progress, comm: Any,
                                                 root=0), folder / MODE_SHAPES_FILE)
         record_stage(stages, "mode_shapes", "computed", time.perf_counter() - t1)
     report = _with_band(modes_report(model, modes, timings), cfg)
+    report["attachment_modes"] = list(modes.attachment_labels)
     if comm.rank == 0:
         if plan.mesh is None:
             write_json(folder / "mesh.json", dict(mesh_doc, stages=stages))

@@ -206,3 +206,30 @@ def test_auto_count_reports_its_band_and_reuses_a_larger_solve(tmp_path):
     assert modes["band"]["modes"] == modes["elastic_mode_count"] == 1
     assert modes["elastic_frequencies_hz"][0] > 100.0
     assert stages(out)["modes"] == "reused"
+
+
+def test_attachment_modes_are_fields_of_the_cached_basis(tmp_path):
+    """[basis] attachment = "scene" on the cantilever (a fixed joint: 3 forces, 3 moments):
+    modes.json lists them, their fields enter the selection, and switching attachment on
+    solves again (the modes' key includes them) while a changed [selection] still reuses."""
+    from simulate_runs import SCENE
+
+    config, out = tmp_path / "study.toml", tmp_path / "out"
+    config.write_text(beam_study(6) + SCENE)
+    assert gcms("reduce", str(config), "--out", str(out)).returncode == 0
+    config.write_text(beam_study(6) + SCENE + '\n[basis]\nattachment = "scene"\n')
+    run = gcms("reduce", str(config), "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    assert stages(out)["modes"] == "computed"
+    modes = json.loads((out / "modes.json").read_text())
+    assert len(modes["attachment_modes"]) == 6
+    assert all(label.endswith("at end_x0") for label in modes["attachment_modes"])
+    selection = json.loads((out / "selection.json").read_text())
+    assert selection["fields_before"] == 4 + 3 * 6 + 3 * 6
+    assert any(name.startswith("att") for name in selection["fields_kept"])
+    assert read_modes(out / "modes.h5").basis.attachment == tuple(modes["attachment_modes"])
+    config.write_text(config.read_text().replace("[selection]",
+                                                 "[selection]\nsvd_tolerance = 1e-5"))
+    run = gcms("reduce", str(config), "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    assert stages(out)["modes"] == "reused"

@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
 
 from gcms_fenicsx.config.scene_band import Band
+
+if TYPE_CHECKING:
+    from gcms_fenicsx.config.basis import AttachmentLoad
 from gcms_fenicsx.config.table import Table
 
 
@@ -24,6 +27,7 @@ class ModesConfig:
     tolerance: float = 1e-10
     max_iterations: int = 200
     band: Band | None = None
+    attachment: tuple[AttachmentLoad, ...] | None = None   # from [basis] and the scene
 
     @property
     def auto(self) -> bool:

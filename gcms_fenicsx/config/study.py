@@ -23,13 +23,15 @@ from gcms_fenicsx.config.geometry import parse_geometry, parse_mesh
 from gcms_fenicsx.dynamics.scene import Scene, parse_scene
 from gcms_fenicsx.config.material import Material, parse_material
 from gcms_fenicsx.config.modes import ModesConfig, parse_modes
+from gcms_fenicsx.config.basis import BasisConfig, attachment_loads, parse_basis
 from gcms_fenicsx.config.outputs import OutputsConfig, parse_outputs
 from gcms_fenicsx.config.scene_band import scene_band
 from gcms_fenicsx.config.selection import SelectionConfig, parse_selection
 from gcms_fenicsx.config.table import ConfigError
 
 #: Tables a study file may contain, in pipeline order.
-KNOWN_TABLES = ("geometry", "mesh", "material", "modes", "selection", "scene", "outputs")
+KNOWN_TABLES = ("geometry", "mesh", "material", "modes", "selection", "scene", "outputs",
+                "basis")
 #: The tables a reduced model depends on: its input hash, and the key of its cache.
 REDUCED_MODEL_TABLES = ("geometry", "mesh", "material", "modes", "selection")
 #: The tables the mesh depends on: the key of mesh.msh.
@@ -45,6 +47,7 @@ class StudyConfig:
     selection: SelectionConfig = field(default_factory=SelectionConfig)
     scene: Scene | None = None
     outputs: OutputsConfig = field(default_factory=OutputsConfig)
+    basis: BasisConfig = field(default_factory=BasisConfig)
     source: str = "<built-in default>"
 
     def digest(self, *tables: str) -> str:
@@ -60,6 +63,8 @@ class StudyConfig:
         modes it returns (more modes than asked serve as well: fewer are a leading block)."""
         accuracy = {"tolerance": self.modes.tolerance,
                     "max_iterations": self.modes.max_iterations}
+        if self.modes.attachment is not None:
+            accuracy["attachment"] = [asdict(load) for load in self.modes.attachment]
         return hashlib.sha256(json.dumps([self.digest("geometry", "mesh", "material"),
                                           accuracy]).encode()).hexdigest()
 
@@ -78,6 +83,8 @@ def parse_config(raw: Mapping[str, Any], source: str = "<dict>") -> StudyConfig:
                               "comes from its loads, drive and time step; give a number")
         band = scene_band(scene)
         modes = replace(modes, max_frequency_hz=band.max_frequency_hz, band=band)
+    basis = parse_basis(raw.get("basis"))
+    modes = replace(modes, attachment=attachment_loads(basis, scene) or None)
     return StudyConfig(
         geometry=geom,
         mesh=parse_mesh(raw.get("mesh"), geom),
@@ -86,6 +93,7 @@ def parse_config(raw: Mapping[str, Any], source: str = "<dict>") -> StudyConfig:
         selection=parse_selection(raw.get("selection")),
         scene=scene,
         outputs=parse_outputs(raw.get("outputs")),
+        basis=basis,
         source=source,
     )
 
@@ -113,7 +121,7 @@ def load_config(path: str | Path | None = None) -> StudyConfig:
 
 #: Fields added to a table after files keyed by its hash were written: left out of the hash
 #: while they hold their default None, so those files are still reused.
-LATER_FIELDS = ("band",)
+LATER_FIELDS = ("band", "attachment")
 
 
 def _plain(obj: Any) -> Any:

@@ -171,21 +171,27 @@ def _run_eps(model: FEModel, nev: int, sigma: float, cfg: ModesConfig,
     return eps
 
 
-def purified(model: FEModel, factor: PETSc.Mat, ritz: np.ndarray) -> np.ndarray:
-    """Purified Ritz vectors y ← (K − σM)⁻¹ M y, M-normalised, with one multi-RHS solve.
+def purified(model: FEModel, factor: PETSc.Mat, ritz: np.ndarray,
+             loads: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    """Purified Ritz vectors y ← (K − σM)⁻¹ M y, M-normalised, with one multi-RHS solve, and
+    (K − σM)⁻¹ ``loads`` in the same solve.
 
     ``factor``: a factorisation of K − σM. The shift-invert operator damps the part of a
     Ritz vector's error along eigenvalue λ by (λ₀ − σ)/(λ − σ): SLEPc's eigenvector
     purification, done here for all vectors in one block solve (MUMPS solves 32
     right-hand sides for much less per vector than single solves; docs/design.md §8).
     """
-    rhs = dense_operand(model.K, mass_dense(model, ritz))
+    block = mass_dense(model, ritz)
+    if loads is not None:
+        block = np.hstack([block, loads])
+    rhs = dense_operand(model.K, block)
     out = rhs.duplicate()
     factor.matSolve(rhs, out)
     Y = out.getDenseArray().copy()
     rhs.destroy()
     out.destroy()
-    return _m_normalised(model, Y)
+    k = ritz.shape[1]
+    return _m_normalised(model, Y[:, :k]), (Y[:, k:] if loads is not None else None)
 
 
 def _m_normalised(model: FEModel, Y: np.ndarray) -> np.ndarray:
@@ -200,8 +206,9 @@ def without_rigid(model: FEModel, rigid: np.ndarray, Y: np.ndarray) -> np.ndarra
 
 @dataclass(frozen=True)
 class KrylovModes:
-    """What the Krylov solve returns: wanted elastic pairs (purified), the next eigenvalue, and
-    the Sylvester count at the check shift halfway between the two (with its seconds)."""
+    """What the Krylov solve returns: wanted elastic pairs (purified), the next eigenvalue, the
+    Sylvester count at the check shift halfway between the two (with its seconds), and
+    (K − σM)⁻¹ of the loads it was given."""
 
     eigenvalues: np.ndarray
     vectors: np.ndarray
@@ -210,12 +217,16 @@ class KrylovModes:
     check_shift: float
     inertia_count: int
     inertia_seconds: float
+    static: np.ndarray | None = None
 
 
 def krylov_modes(model: FEModel, wanted: int, shift: Shift, rigid: np.ndarray,
-                 cfg: ModesConfig, progress: Progress = quiet) -> KrylovModes:
+                 cfg: ModesConfig, progress: Progress = quiet,
+                 loads: np.ndarray | None = None) -> KrylovModes:
     """The ``wanted`` lowest elastic pairs by shift-invert Krylov–Schur in the M-orthogonal
-    complement of ``rigid``, purified and freed of rigid content (module docstring)."""
+    complement of ``rigid``, purified and freed of rigid content (module docstring), and the
+    solutions (K − σM)⁻¹ ``loads`` with the same factor, before it is refactorised for the
+    Sylvester count."""
     # one eigenpair past the last wanted one places the Sylvester check in the gap after it;
     # more only lengthen the Krylov basis
     eps = _run_eps(model, wanted + 1, shift.sigma, cfg, rigid, progress)
@@ -236,7 +247,7 @@ def krylov_modes(model: FEModel, wanted: int, shift: Shift, rigid: np.ndarray,
         eps.getEigenvector(int(i), vr)
         ritz[:, j] = vr.array
     ksp = eps.getST().getKSP()
-    elastic = purified(model, ksp.getPC().getFactorMatrix(), ritz)
+    elastic, static = purified(model, ksp.getPC().getFactorMatrix(), ritz, loads)
     last, following = float(values[order[wanted - 1]]), float(values[order[wanted]])
     check_shift = 0.5 * (last + following)
     t0 = time.perf_counter()
@@ -246,7 +257,7 @@ def krylov_modes(model: FEModel, wanted: int, shift: Shift, rigid: np.ndarray,
     return KrylovModes(eigenvalues=values[order[:wanted]],
                        vectors=without_rigid(model, rigid, elastic), next_eigenvalue=following,
                        iterations=its, check_shift=check_shift, inertia_count=inertia,
-                       inertia_seconds=inertia_seconds)
+                       inertia_seconds=inertia_seconds, static=static)
 
 
 def wanted_modes(model: FEModel, cfg: ModesConfig, timings: dict[str, float]) -> int:
@@ -274,8 +285,17 @@ def wanted_modes(model: FEModel, cfg: ModesConfig, timings: dict[str, float]) ->
 
 
 def solve_free_free(model: FEModel, cfg: ModesConfig, progress: Progress = quiet,
-                    memory_check: Callable[[int, int, int], None] | None = None) -> Modes:
-    """The six rigid and the requested elastic modes of (K, M), verified.
+                    memory_check: Callable[[int, int, int], None] | None = None,
+                    loads: np.ndarray | None = None) -> Modes:
+    """The six rigid and the requested elastic modes of (K, M), verified, and the attachment
+    modes of ``loads`` (columns: this rank's rows of unit loads, ``fe.attachment``).
+
+    Attachment mode (docs/design.md §3.7): the load relieved of its rigid-body part by the
+    inertia forces, f' = f − M R Rᵀ f (R the M-orthonormal rigid modes: Rᵀ f' = 0, a
+    self-equilibrated load), its static response u = (K − σM)⁻¹ f' with the solve's own
+    factor (σ < 0 below every elastic eigenvalue; it shifts u's components along mode k by
+    λ_k/(λ_k − σ), nearly 1 above the lowest modes, which the eigenmodes span anyway), then
+    u − R Rᵀ M u, M-normalised.
 
     ``cfg.count`` elastic modes, or every elastic mode below ``cfg.max_frequency_hz``
     (counted beforehand with :func:`inertia_below`). ``memory_check(dofs, nodes, wanted)``
@@ -292,7 +312,9 @@ def solve_free_free(model: FEModel, cfg: ModesConfig, progress: Progress = quiet
     progress(f"eigen-solve: {wanted} elastic modes of {model.ndofs} DOFs, shift "
              f"{shift.sigma:.4g}, rigid modes deflated")
     t0 = time.perf_counter()
-    found = krylov_modes(model, wanted, shift, rigid, cfg, progress)
+    relieved = None if loads is None else \
+        loads - mass_dense(model, rigid) @ gram(model.comm, rigid, loads)
+    found = krylov_modes(model, wanted, shift, rigid, cfg, progress, relieved)
     timings["inertia_check"] = found.inertia_seconds
     timings["eigensolve"] = time.perf_counter() - t0 - found.inertia_seconds
 
@@ -308,7 +330,8 @@ def solve_free_free(model: FEModel, cfg: ModesConfig, progress: Progress = quiet
         progress(f"warning: {warning}")
     modes = Modes(eigenvalues=values, vectors=vectors, rigid_count=6, shift=shift.sigma,
                   center_m=shift.center_m, verification=verification, timings_s=timings,
-                  warnings=(warning,) if warning else ())
+                  warnings=(warning,) if warning else (),
+                  attachment=None if loads is None else without_rigid(model, rigid, found.static))
     problems = verification.problems(values, 6)
     if problems:
         raise EigenSolveError("eigen-solve check failed: " + "; ".join(problems))

@@ -15,7 +15,9 @@ class Modes:
     """Free-free modes, rigid first, then elastic in ascending order.
 
     ``vectors`` holds this rank's owned rows (node-major, direction-minor) of the
-    M-orthonormal mode shapes, one column per mode.
+    M-orthonormal mode shapes, one column per mode; ``attachment`` the same rows of the
+    attachment modes (M-normalised, rigid content removed; none unless asked), one per
+    label of ``attachment_labels``.
     """
 
     eigenvalues: np.ndarray
@@ -26,6 +28,8 @@ class Modes:
     verification: Verification
     timings_s: dict[str, float] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
+    attachment: np.ndarray | None = None
+    attachment_labels: tuple[str, ...] = ()
 
     @property
     def elastic_eigenvalues(self) -> np.ndarray:

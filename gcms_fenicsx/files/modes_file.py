@@ -9,7 +9,8 @@ and sealed with content checksums (``versioned``), so a damaged or changed file 
 never used. NumPy and h5py only.
 
 Layout (schema 1): root attributes ``schema_version``, ``key`` (str), ``rigid_count``
-(int), ``document`` (JSON); datasets ``/fields``, ``/nodes_m``, ``/gram_mass``,
+(int), ``document`` (JSON), ``attachment`` (JSON: the attachment modes' labels, whose
+fields follow the eigenmodes'); datasets ``/fields``, ``/nodes_m``, ``/gram_mass``,
 ``/gram_euclid``, ``/stiffness``, ``/eigenvalues``, ``/center_m`` and
 ``/groups/<name>/nodes``, ``/groups/<name>/weights``.
 """
@@ -53,6 +54,7 @@ def write_modes(path: str | Path, stored: StoredModes) -> None:
         f.attrs["key"] = stored.key
         f.attrs["rigid_count"] = b.rigid_count
         f.attrs["document"] = json_text(stored.document)
+        f.attrs["attachment"] = json_text(list(b.attachment))
         for name in _ARRAYS:
             f.create_dataset(name, data=np.asarray(getattr(b, name), dtype=np.float64))
         write_groups(f, b.groups)
@@ -76,7 +78,8 @@ def read_modes(path: str | Path) -> StoredModes:
                   for name, g in f["groups"].items()}
         key, rigid_count = str(f.attrs["key"]), int(f.attrs["rigid_count"])
         document = json.loads(f.attrs["document"])
-    basis = ModalBasis(**arrays, rigid_count=rigid_count, groups=groups)
+        attachment = tuple(json.loads(f.attrs.get("attachment", "[]")))
+    basis = ModalBasis(**arrays, rigid_count=rigid_count, groups=groups, attachment=attachment)
     _check(basis, where)
     return StoredModes(basis=basis, document=document, key=key)
 
@@ -85,7 +88,7 @@ def _check(b: ModalBasis, where: str) -> None:
     """ModesFileError if the arrays do not fit together."""
     n, nf = b.fields.shape if b.fields.ndim == 2 else (0, -1)
     problems = []
-    if nf != len(RIGID_FIELDS) + 3 * b.mode_count or b.mode_count < 1:
+    if nf != len(RIGID_FIELDS) + 3 * (b.mode_count + len(b.attachment)) or b.mode_count < 1:
         problems.append(f"/fields has {nf} columns for {b.mode_count} modes")
     if b.nodes_m.shape != (n, 3):
         problems.append(f"/nodes_m has shape {b.nodes_m.shape}, expected ({n}, 3)")

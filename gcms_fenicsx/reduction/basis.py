@@ -59,12 +59,15 @@ def field_basis(model: FEModel, modes: Modes) -> FieldBasis:
     """F from the undeformed node coordinates and the elastic mode shapes (eqs. (1)–(3) as fields)."""
     center = modes.center_m
     shapes = modes.elastic_vectors  # (3 n_owned, Nm), node-major
+    attached = len(modes.attachment_labels)
+    if attached:
+        shapes = np.hstack([shapes, modes.attachment])
     n = model.nodes.shape[0]
     mode_fields = shapes.reshape(n, 3, -1).transpose(0, 2, 1).reshape(n, -1)  # (n, Nm·3): m, k
     F = np.hstack([np.ones((n, 1)), model.nodes - center, mode_fields])
     MsF = mat_dense(model.Ms, F)
     comm = model.comm
-    return FieldBasis(fields=F, names=field_names(shapes.shape[1]),
+    return FieldBasis(fields=F, names=field_names(shapes.shape[1] - attached, attached),
                       gram_mass=symmetric(gram(comm, F, MsF)),
                       gram_euclid=symmetric(gram(comm, F, F)),
                       center_m=center, mode_count=shapes.shape[1])
@@ -152,7 +155,7 @@ def modal_basis(model: FEModel, modes: Modes, body: BodyMesh) -> ModalBasis | No
         fields=np.vstack(fields)[rows], nodes_m=np.vstack(nodes)[rows],
         gram_mass=local.gram_mass, gram_euclid=local.gram_euclid, stiffness=stiffness,
         eigenvalues=modes.eigenvalues.copy(), rigid_count=modes.rigid_count,
-        center_m=np.asarray(modes.center_m, dtype=float),
+        center_m=np.asarray(modes.center_m, dtype=float), attachment=modes.attachment_labels,
         groups={name: _in_file_order(position, nodes_g, weights)
                 for name, (nodes_g, weights) in groups.items()})
 

@@ -22,10 +22,12 @@ RIGID_FIELDS = ("1", "X", "Y", "Z")
 AXES = "xyz"
 
 
-def field_names(mode_count: int) -> tuple[str, ...]:
-    """'1', 'X', 'Y', 'Z', then 'phi{m}_{k}' for mode m (1-based) and component k ∈ {x, y, z}."""
-    return RIGID_FIELDS + tuple(f"phi{m + 1}_{AXES[k]}" for m in range(mode_count)
-                                for k in range(3))
+def field_names(mode_count: int, attachment_count: int = 0) -> tuple[str, ...]:
+    """'1', 'X', 'Y', 'Z', then 'phi{m}_{k}' for mode m (1-based) and component k ∈ {x, y, z},
+    then 'att{a}_{k}' for attachment mode a."""
+    return (RIGID_FIELDS + tuple(f"phi{m + 1}_{AXES[k]}" for m in range(mode_count)
+                                 for k in range(3))
+            + tuple(f"att{a + 1}_{AXES[k]}" for a in range(attachment_count) for k in range(3)))
 
 
 @dataclass(frozen=True)
@@ -36,7 +38,8 @@ class ModalBasis:
     ``gram_mass`` = Fᵀ Ms F and ``gram_euclid`` = Fᵀ F (fields²); ``stiffness`` Kr of all
     fields (3 fields)², column (f, l) = 3f + l; ``eigenvalues`` the free-free eigenvalues,
     ``rigid_count`` rigid first; ``center_m`` the centre of mass X is measured from;
-    ``groups`` the surface groups' nodes (rows of F) and weights.
+    ``groups`` the surface groups' nodes (rows of F) and weights; ``attachment`` the labels
+    of the attachment modes, whose fields follow the eigenmodes' (docs/design.md §3.7).
     """
 
     fields: np.ndarray
@@ -48,6 +51,7 @@ class ModalBasis:
     rigid_count: int
     center_m: np.ndarray
     groups: dict[str, NodeGroup]
+    attachment: tuple[str, ...] = ()
 
     @property
     def mode_count(self) -> int:
@@ -55,7 +59,7 @@ class ModalBasis:
 
     @property
     def names(self) -> tuple[str, ...]:
-        return field_names(self.mode_count)
+        return field_names(self.mode_count, len(self.attachment))
 
     @property
     def field_count(self) -> int:
@@ -67,19 +71,23 @@ class ModalBasis:
         return np.sqrt(np.maximum(self.eigenvalues[self.rigid_count:], 0.0)) / (2.0 * np.pi)
 
     def lowest(self, count: int) -> "ModalBasis":
-        """The basis of the rigid and the lowest ``count`` elastic modes: leading blocks."""
+        """The basis of the rigid, the lowest ``count`` elastic and every attachment mode: the
+        leading blocks and the attachment ones."""
         if not 0 < count <= self.mode_count:
             raise ValueError(f"{count} modes asked of a basis of {self.mode_count}")
-        nf = len(RIGID_FIELDS) + 3 * count
-        return replace(self, fields=self.fields[:, :nf], gram_mass=self.gram_mass[:nf, :nf],
-                       gram_euclid=self.gram_euclid[:nf, :nf],
-                       stiffness=self.stiffness[:3 * nf, :3 * nf],
+        first = len(RIGID_FIELDS) + 3 * count
+        keep = np.r_[:first, len(RIGID_FIELDS) + 3 * self.mode_count:self.field_count]
+        columns = (3 * keep[:, None] + np.arange(3)).ravel()
+        return replace(self, fields=self.fields[:, keep],
+                       gram_mass=self.gram_mass[np.ix_(keep, keep)],
+                       gram_euclid=self.gram_euclid[np.ix_(keep, keep)],
+                       stiffness=self.stiffness[np.ix_(columns, columns)],
                        eigenvalues=self.eigenvalues[:self.rigid_count + count])
 
     def mode_fields(self) -> np.ndarray:
         """The elastic mode shapes (N, 3, Nm): node, direction, mode."""
-        n = self.fields.shape[0]
-        return self.fields[:, len(RIGID_FIELDS):].reshape(n, -1, 3).transpose(0, 2, 1)
+        n, first = self.fields.shape[0], len(RIGID_FIELDS)
+        return self.fields[:, first:first + 3 * self.mode_count].reshape(n, -1, 3).transpose(0, 2, 1)
 
 
 def symmetric(A: np.ndarray) -> np.ndarray:
