@@ -49,6 +49,15 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     logging.disable(logging.INFO)  # the JIT's C build logs every compiler call at INFO
+    try:
+        return _run(args)
+    except KeyboardInterrupt:  # before the command's own handlers: nothing written yet
+        print(f"gcms {args.command}: interrupted (SIGINT) while starting; {args.out} is as it "
+              "was", file=sys.stderr)
+        return 128 + signal.SIGINT
+
+
+def _run(args: argparse.Namespace) -> int:
     from mpi4py import MPI
 
     from gcms_fenicsx import commands  # light: the FE verbs import dolfinx when they run

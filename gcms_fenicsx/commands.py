@@ -54,10 +54,12 @@ def _verb(config: Path | None, out: Path, fresh: bool, upto: str, owns: tuple[st
     progress = progress_printer(comm.rank)
     plan = comm.bcast(stage_cache.plan(cfg, out, upto, fresh, progress) if comm.rank == 0
                       else None, root=0)
-    owned = stage_cache.owned_files(plan, owns)
+    owned = (*stage_cache.owned_files(plan, owns), stage_cache.MANIFEST)
     summary = None
     with staged_output(out, comm, owned) as folder:
         built = stage_files.build(cfg, folder, progress, comm, plan, upto)
+        if comm.rank == 0:
+            stage_cache.write_manifest(out, folder, owned)
         if scene != "none" and cfg.scene is not None:
             summary = on_rank0(comm, scene_files, cfg, built.model, folder, progress,
                                built.stages)

@@ -3,8 +3,7 @@
 Each stage's product is kept in ``--out`` with the key of exactly the tables it depends on
 and a content checksum:
 
-- the mesh, ``mesh.msh``: key ``input_digest`` = [geometry] + [mesh], and ``msh_sha256``,
-  both in ``mesh.json``;
+- the mesh, ``mesh.msh``: key ``input_digest`` = [geometry] + [mesh] in ``mesh.json``;
 - the free-free modes with the modal basis, ``modes.h5`` (``files.modes_file``): key
   [geometry] + [mesh] + [material] + the solve's accuracy (``StudyConfig.modes_key``), not
   the mode count: a file with more modes than asked serves, restricted to the lowest ones
@@ -12,8 +11,13 @@ and a content checksum:
   ``max_frequency_hz`` serves that band;
 - the reduced model, ``reduced.h5``: key ``input_hash`` over REDUCED_MODEL_TABLES.
 
-A product whose key differs, whose checksum does not match or that cannot be read is
-never used: the command says why in a progress line and computes it again. The plan is
+Every command writes ``cache.json``, the SHA-256 of each cached file's bytes (mesh.msh,
+mesh.json, modes.h5, reduced.h5), and a listed file is hashed and compared before it is
+parsed: a damaged HDF5 file can crash the HDF5 library itself, and the files' own checksums
+do not cover HDF5 group names or mesh.json. A file the manifest does not list (copied in by
+hand, or from an older version) is left to its own checks. A product whose bytes do not
+match the manifest, whose key differs or that cannot be read is never used: the command
+says why in a progress line and computes it again. The plan is
 made before anything runs (rank 0), so the command knows which files it will replace.
 The simulation always runs: it is what a scene asks for. NumPy and h5py only.
 """
@@ -33,6 +37,9 @@ from gcms_fenicsx.reduction.spectrum import clusters, cut_cluster_warning
 from gcms_fenicsx.runtime.progress import Progress
 from geometry.info import MeshInfo
 
+#: The cache's manifest in --out, and the files it covers.
+MANIFEST = "cache.json"
+CACHED_FILES = ("mesh.msh", "mesh.json", "modes.h5", "reduced.h5")
 #: Files of each reusable stage, and of the stages above it that a reuse skips.
 MESH_PRODUCT = ("mesh.msh", "mesh.json")
 MODES_PRODUCT = (*MESH_PRODUCT, "modes.h5")
@@ -79,6 +86,42 @@ def file_sha256(path: Path) -> str:
     return digest.hexdigest()
 
 
+def read_manifest(out: Path) -> dict[str, str]:
+    """``out/cache.json``'s file → SHA-256 entries; empty if absent or not a manifest."""
+    try:
+        files = json.loads((Path(out) / MANIFEST).read_text())["files"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return {}
+    if not isinstance(files, dict):
+        return {}
+    return {name: sha for name, sha in files.items()
+            if name in CACHED_FILES and isinstance(sha, str)}
+
+
+def write_manifest(out: Path, folder: Path, owned: tuple[str, ...]) -> None:
+    """``folder/cache.json``: the files this command staged, hashed, and the entries of
+    ``out``'s manifest for the cached files it leaves as they are (not in ``owned``)."""
+    from gcms_fenicsx.files.outputs import write_json
+
+    files = {name: sha for name, sha in read_manifest(out).items() if name not in owned}
+    files.update({name: file_sha256(folder / name) for name in CACHED_FILES
+                  if (folder / name).is_file()})
+    write_json(folder / MANIFEST, {"files": dict(sorted(files.items()))})
+
+
+def _intact(out: Path, names: tuple[str, ...], progress: Progress, what: str) -> bool:
+    """Whether the files ``names`` of ``out`` are those the manifest recorded (a line if not).
+    A file the manifest does not list (copied in, or from an older version) is left to its
+    own checks."""
+    manifest = read_manifest(out)
+    for name in names:
+        if name in manifest and file_sha256(out / name) != manifest[name]:
+            progress(f"{what}: {out / name} does not match its checksum in {MANIFEST} "
+                     "(changed or damaged); computing again")
+            return False
+    return True
+
+
 def plan(cfg: StudyConfig, out: Path, upto: str, fresh: bool, progress: Progress) -> Plan:
     """What to reuse for a command that needs the stages up to ``upto`` ("mesh", "modes",
     "reduced"): the furthest reusable product, and nothing above it that it makes
@@ -94,28 +137,30 @@ def plan(cfg: StudyConfig, out: Path, upto: str, fresh: bool, progress: Progress
     modes = cached_modes(cfg, out, progress) if upto != "mesh" else None
     if modes is not None and not shapes:
         return Plan(modes=modes, reduced=reduced)
-    return Plan(mesh=cached_mesh(cfg, out, progress), modes=modes, reduced=reduced)
+    mesh = cached_mesh(cfg, out, progress)
+    if shapes and modes is not None and mesh is None:
+        progress("modes: the cached modes' mesh cannot be reused, so neither can they "
+                 "(mode shapes are written on that mesh); solving again")
+        modes = None
+    return Plan(mesh=mesh, modes=modes, reduced=reduced)
 
 
 def cached_mesh(cfg: StudyConfig, out: Path, progress: Progress) -> CachedMesh | None:
     """``out/mesh.msh`` if mesh.json says it was made from this study's [geometry] and [mesh]
     and its checksum matches, else None."""
     msh, record = out / "mesh.msh", out / "mesh.json"
-    if not (msh.is_file() and record.is_file()):
+    if not (msh.is_file() and record.is_file()) or \
+            not _intact(out, ("mesh.msh", "mesh.json"), progress, "mesh"):
         return None
     try:
         document = json.loads(record.read_text())
-        key, checksum = document["input_digest"], document.get("msh_sha256")
+        key = document["input_digest"]
         info = MeshInfo.from_json(document["geometry"])
-    except (OSError, ValueError, KeyError, TypeError) as exc:
+    except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
         progress(f"mesh: {record} cannot be read ({exc}); meshing again")
         return None
     if key != cfg.digest(*MESH_TABLES):
         progress(f"mesh: {msh} was made from other [geometry] or [mesh] values; meshing again")
-        return None
-    if checksum != file_sha256(msh):
-        progress(f"mesh: {msh} does not match the checksum in {record.name} (changed or "
-                 "damaged); meshing again")
         return None
     progress(f"mesh: reusing {msh} ({info.nodes} nodes; inputs unchanged)")
     return CachedMesh(msh_path=msh, info=info, document=document)
@@ -125,7 +170,7 @@ def cached_modes(cfg: StudyConfig, out: Path, progress: Progress) -> StoredModes
     """``out/modes.h5`` restricted to the modes this study asks for, if it was solved from
     the same inputs and holds them all, intact; else None."""
     path = out / "modes.h5"
-    if not path.is_file():
+    if not path.is_file() or not _intact(out, ("modes.h5",), progress, "modes"):
         return None
     try:
         stored = read_modes(path)
@@ -149,9 +194,13 @@ def cached_modes(cfg: StudyConfig, out: Path, progress: Progress) -> StoredModes
         count = int(np.count_nonzero(elastic < cut))
         if cfg.modes.auto:
             count = max(count, 1)
-        if cut >= verified or count < 1:
+        if cut >= verified:
             progress(f"modes: {path} does not cover every mode below "
                      f"{cfg.modes.max_frequency_hz:g} Hz; solving again")
+            return None
+        if count < 1:
+            progress(f"modes: {path} holds no elastic mode below "
+                     f"{cfg.modes.max_frequency_hz:g} Hz; solving to say so with the count")
             return None
     progress(f"modes: reusing {path} ({count} of its {held} elastic modes; inputs unchanged)")
     return restricted(stored, count)
@@ -189,7 +238,7 @@ def cached_reduced(cfg: StudyConfig, out: Path, progress: Progress) -> ReducedMo
     """``out/reduced.h5`` if it was made from this study's upstream tables, intact, else None
     (with a progress line saying why it is rebuilt)."""
     path = out / "reduced.h5"
-    if not path.is_file():
+    if not path.is_file() or not _intact(out, ("reduced.h5",), progress, "reduced model"):
         return None
     try:
         model = read_reduced(path)

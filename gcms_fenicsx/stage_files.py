@@ -53,10 +53,9 @@ def record_stage(stages: dict[str, dict], name: str, status: str, seconds: float
 
 
 def mesh_document(cfg: StudyConfig, product: pipeline.MeshProduct, mass: dict,
-                  mass_time_s: float, msh_sha256: str) -> dict:
+                  mass_time_s: float) -> dict:
     """The ``mesh.json`` document: counts, groups, and the mesh's mass properties (``mass``,
-    unit density) beside the CAD's; ``input_digest`` and ``msh_sha256`` are the mesh cache's
-    key and checksum."""
+    unit density) beside the CAD's; ``input_digest`` is the mesh cache's key."""
     info = product.info.to_json()
     return {
         "nodes": product.info.nodes,
@@ -69,7 +68,6 @@ def mesh_document(cfg: StudyConfig, product: pipeline.MeshProduct, mass: dict,
         "physical_groups": sorted(product.info.groups),
         "geometry": info,
         "input_digest": cfg.digest(*MESH_TABLES),
-        "msh_sha256": msh_sha256,
         "warnings": list(product.warnings),
         "timings_s": {"geometry_and_mesh": product.wall_time_s, "mesh_integrals": mass_time_s},
     }
@@ -122,16 +120,18 @@ def _mesh_alone(cfg: StudyConfig, folder: Path, progress: Progress, comm: Any,
 def _document(cfg: StudyConfig, product: pipeline.MeshProduct, mass: dict, seconds: float,
               comm: Any) -> dict:
     """mesh.json of a mesh built in this command, on every rank."""
-    document = mesh_document(cfg, product, mass, seconds,
-                             stage_cache.file_sha256(product.msh_path)) if comm.rank == 0 else None
-    return comm.bcast(document, root=0)
+    return comm.bcast(mesh_document(cfg, product, mass, seconds) if comm.rank == 0 else None,
+                      root=0)
 
 
 def _check_memory(cfg: StudyConfig, dofs: int, nodes: int, wanted: int) -> None:
     """Refuse (ConfigError) a solve and reduction of ``wanted`` modes on ``dofs`` degrees of
     freedom that would need more memory than this machine has (``fe.memory``)."""
     from gcms_fenicsx.fe import memory
+    band = cfg.modes.band
     modes_key = ("[modes] count", cfg.modes.count) if cfg.modes.count is not None else \
+        ("[modes] count", f'"auto" (the band up to {band.max_frequency_hz:.4g} Hz, set by the '
+                          f"scene's {band.set_by})") if band is not None else \
         ("[modes] max_frequency_hz", cfg.modes.max_frequency_hz)
     memory.check_memory(memory.memory_estimate(dofs, wanted, nodes),
                         ("[mesh] size", cfg.mesh.size), modes_key)
@@ -175,7 +175,8 @@ def _modes(cfg: StudyConfig, folder: Path, progress: Progress, comm: Any,
     model = assembly.model
     timings = {"geometry_and_mesh": product.wall_time_s, "assembly": assembly.wall_time_s,
                "fields_and_matrices": fields_s}
-    record_stage(stages, "modes", "computed", time.perf_counter() - t0, count=modes.elastic_eigenvalues.size)
+    record_stage(stages, "modes", "computed", time.perf_counter() - t0,
+                 count=modes.elastic_eigenvalues.size)
     if cfg.outputs.mode_shapes:
         t1 = time.perf_counter()
         progress(f"mode shapes: writing {MODE_SHAPES_FILE}")
@@ -273,14 +274,15 @@ def build(cfg: StudyConfig, folder: Path, progress: Progress, comm: Any,
             texts.append(mesh_summary(document))
         return Built(texts, stages)
     if upto == "reduced" and plan.reduced is not None and not cfg.outputs.mode_shapes:
-        for name in ("mesh", "modes", "reduction"):
-            record_stage(stages, name, "reused", 0.0)
+        record_stage(stages, "reduction", "reused", 0.0)   # the stages above it were not needed
+        texts.append(f"reduced model: reused ({plan.reduced.dofs} coordinates)")
         return Built(texts, stages, model=plan.reduced)
     basis = _modes(cfg, folder, progress, comm, plan, stages, texts)
     if upto == "modes":
         return Built(texts, stages, basis=basis)
     if plan.reduced is not None:
         record_stage(stages, "reduction", "reused", 0.0)
+        texts.append(f"reduced model: reused ({plan.reduced.dofs} coordinates)")
         return Built(texts, stages, basis, plan.reduced)
     model = on_rank0(comm, _reduce, cfg, folder, basis, progress, stages, texts)
     return Built(texts, stages, basis, model if comm.rank == 0 else None)

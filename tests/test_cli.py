@@ -44,7 +44,7 @@ def test_mesh_writes_msh_and_json(beam_config, tmp_path):
     assert set(report["physical_groups"]) == {"body", "end_x0", "end_xL"}
     assert (out / "mesh.msh").stat().st_size > 0
     assert "volume" in run.stdout
-    assert sorted(p.name for p in out.iterdir()) == ["mesh.json", "mesh.msh"]
+    assert sorted(p.name for p in out.iterdir()) == ["cache.json", "mesh.json", "mesh.msh"]
 
 
 def test_modes_writes_json_and_mode_shapes_only_when_asked(beam_config, tmp_path):

@@ -103,38 +103,51 @@ def _flip_a_byte(path: Path, dataset: str) -> None:
         f.write(bytes([byte[0] ^ 0x01]))
 
 
-@pytest.mark.parametrize("damage", ["modes.h5 bit", "mesh.msh bit", "mesh.json key"])
+@pytest.mark.parametrize("damage", ["modes.h5 bit", "modes.h5 group renamed", "mesh.msh bit",
+                                    "mesh.json edited", "other [mesh]"])
 def test_a_damaged_or_stale_entry_is_never_used(cached, damage):
-    """One flipped bit in modes.h5's matrices or in mesh.msh, or a mesh.json from other inputs:
-    the entry is refused with the reason, and recomputed."""
+    """A flipped bit in modes.h5 (which can crash HDF5 itself) or in mesh.msh, a node group
+    renamed inside modes.h5 (not covered by its own dataset checksums), an edited mesh.json,
+    or a mesh from other [mesh] values: the entry is refused with the reason before it is
+    parsed (cache.json holds every cached file's SHA-256), and recomputed."""
+    import h5py
+
     config, out = cached
+    if damage != "other [mesh]":
+        (out / "reduced.h5").unlink()  # else the intact reduced model spares the stages above
     if damage == "modes.h5 bit":
         _flip_a_byte(out / "modes.h5", "stiffness")
-        (out / "reduced.h5").unlink()  # else the intact reduced model spares the modes
+    elif damage == "modes.h5 group renamed":
+        with h5py.File(out / "modes.h5", "r+") as f:
+            f.move("groups/end_xL", "groups/end_xQ")
     elif damage == "mesh.msh bit":
         with open(out / "mesh.msh", "r+b") as f:
             f.seek(2000)
             byte = f.read(1)
             f.seek(2000)
             f.write(bytes([byte[0] ^ 0x04]))
-        for name in ("reduced.h5", "modes.h5"):
-            (out / name).unlink()
-    else:
+        (out / "modes.h5").unlink()
+    elif damage == "mesh.json edited":
         record = json.loads((out / "mesh.json").read_text())
-        record["input_digest"] = "0" * 64
+        record["geometry"]["groups"]["end_xL"] = [2, 2]      # silently wrong if trusted
         (out / "mesh.json").write_text(json.dumps(record))
-        for name in ("reduced.h5", "modes.h5"):
-            (out / name).unlink()
+        (out / "modes.h5").unlink()
+    else:
+        config.write_text(config.read_text().replace("size = 0.012", "size = 0.013"))
     run = gcms("reduce", str(config), "--out", str(out))
     assert run.returncode == 0, run.stderr
-    expected = {"modes.h5 bit": "does not match its checksum",
-                "mesh.msh bit": "does not match the checksum in mesh.json",
-                "mesh.json key": "was made from other [geometry] or [mesh] values"}[damage]
+    expected = {"modes.h5 bit": "modes.h5 does not match its checksum in cache.json",
+                "modes.h5 group renamed": "modes.h5 does not match its checksum in cache.json",
+                "mesh.msh bit": "mesh.msh does not match its checksum in cache.json",
+                "mesh.json edited": "mesh.json does not match its checksum in cache.json",
+                "other [mesh]": "was made from other [geometry] or [mesh] values"}[damage]
     assert expected in run.stderr, run.stderr
     computed = stages(out)
     assert computed["modes"] == "computed"
-    assert computed["mesh"] == ("reused" if damage == "modes.h5 bit" else "computed")
+    assert computed["mesh"] == ("reused" if damage.startswith("modes.h5") else "computed")
     read_modes(out / "modes.h5")  # the new entry is intact
+    manifest = json.loads((out / "cache.json").read_text())["files"]
+    assert set(manifest) == {"mesh.msh", "mesh.json", "modes.h5", "reduced.h5"}
 
 
 def test_an_interrupted_solve_leaves_the_cache_valid(tmp_path):

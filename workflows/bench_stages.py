@@ -113,7 +113,7 @@ def table(rows: dict[str, dict]) -> str:
     lines += ["", "| run (modes computed) | " + " | ".join(SOLVE_TIMINGS) + " |",
               "|---|" + "---|" * len(SOLVE_TIMINGS)]
     for name, r in rows.items():
-        if r["stages"].get("modes", {}).get("status", "computed") == "computed":
+        if not r["stages"] or r["stages"].get("modes", {}).get("status") == "computed":
             lines.append(f"| {name} | " + " | ".join(
                 "" if r["solve_s"][k] is None else f"{r['solve_s'][k]:.2f}"
                 for k in SOLVE_TIMINGS) + " |")

@@ -44,7 +44,7 @@ def parse_modes(raw: Mapping[str, Any] | None) -> ModesConfig:
         count, fmax = None, t.positive("max_frequency_hz")
     elif t.get("count", default.count) == "auto":
         count, fmax = None, None   # the study sets the band from its scene
-    elif isinstance(t.get("count", default.count), str):
+    elif isinstance(t.get("count", default.count), (str, bool, float)):
         raise t.error("count", t.get("count"), 'must be an integer ≥ 1 or "auto"')
     else:
         count, fmax = t.integer("count", default.count, low=1), None

@@ -39,6 +39,7 @@ from petsc4py import PETSc
 from slepc4py import SLEPc
 
 from gcms_fenicsx.config.modes import ModesConfig
+from gcms_fenicsx.config.table import ConfigError
 from gcms_fenicsx.fe.algebra import dense_operand, gram, mat_dense
 from gcms_fenicsx.fe.assembly import FEModel
 from gcms_fenicsx.fe.factor import (factor_options, inertia_below, inertia_refactorised,
@@ -277,6 +278,11 @@ def wanted_modes(model: FEModel, cfg: ModesConfig, timings: dict[str, float]) ->
                 "6 of them rigid)")
     else:
         wanted = cfg.count
+    if 6 + wanted + 2 > model.ndofs // 2 and cfg.auto:
+        raise ConfigError("[modes] count", "auto", f"the scene's band up to "
+                          f"{cfg.max_frequency_hz:.4g} Hz (set by its {cfg.band.set_by}) holds "
+                          f"{wanted} elastic modes, more than the {model.ndofs} DOFs allow; "
+                          "raise [scene] time_step or give a number")
     if 6 + wanted + 2 > model.ndofs // 2:
         raise EigenSolveError(f"{wanted} elastic modes requested, but the space has only "
                               f"{model.ndofs} degrees of freedom; ask for fewer than "

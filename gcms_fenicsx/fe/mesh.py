@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-import gmsh  # resets SIGINT to kill the process: reinstalled below
+import gmsh  # its import resets SIGINT: done first, and undone, by the fe package
 import numpy as np
 from dolfinx.io import gmshio
 from dolfinx.mesh import Mesh, MeshTagsMetaClass
@@ -20,8 +20,6 @@ from mpi4py import MPI
 from geometry.meshing import gmsh_session
 
 from gcms_fenicsx.runtime.interrupts import reinstall
-
-reinstall()
 
 
 @dataclass(frozen=True)
