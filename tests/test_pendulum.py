@@ -82,7 +82,8 @@ def test_attachment_modes_bring_ten_modes_within_one_percent(case):
     """[basis] attachment = "scene": the static responses to unit forces and to unit moments
     about the two held axes at the pin (inertia relief, docs/design.md §3.7) added as GCMS
     fields. Undamped, Nm = 10 with them is within 1 % of reference (a) (2.2 % without;
-    0.05 % measured), and Nm = 5 with them beats Nm = 10 without."""
+    0.05 % measured), also at svd_tolerance 1e-4, and Nm = 5 with them beats Nm = 10
+    without."""
     cfg, body_mesh, model, modes, full, rigid = case
     attached = parse_config(dict(pendulum.STUDY, modes={"count": 10},
                                  basis={"attachment": "scene"}))
@@ -93,13 +94,20 @@ def test_attachment_modes_bring_ten_modes_within_one_percent(case):
     until = rigid.half_period_s
     time, ref = _deviation(case, full, scene, factorize=sparse_factorization)
     errors = {}
-    for label, basis in (("10 + attachment", every), ("5 + attachment", every.lowest(5)),
-                         ("10", pipeline.basis_stage(model, modes.lowest(10), body_mesh))):
-        t, d = _deviation(case, body_from_reduced(pipeline.reduction_stage(basis, cfg.selection)),
+    loose = replace(cfg.selection, svd_tolerance=1e-4)
+    for label, basis, selection in (
+            ("10 + attachment", every, cfg.selection),
+            ("5 + attachment", every.lowest(5), cfg.selection),
+            ("10 + attachment, svd_tolerance 1e-4", every, loose),
+            ("10", pipeline.basis_stage(model, modes.lowest(10), body_mesh), cfg.selection)):
+        t, d = _deviation(case, body_from_reduced(pipeline.reduction_stage(basis, selection)),
                           scene)
         errors[label] = pendulum.deviation_error(t, d, ref, until)
     assert errors["10 + attachment"] <= 0.01, errors
     assert errors["5 + attachment"] < errors["10"], errors
+    # the attachment fields are orthogonalised against the eigenmodes before the selection,
+    # so a looser tolerance does not drop the part they add (32 % before, 0.42 % measured)
+    assert errors["10 + attachment, svd_tolerance 1e-4"] <= 0.01, errors
 
 
 def test_svk_reference_is_linear_elasticity_at_small_strain_and_objective(case):

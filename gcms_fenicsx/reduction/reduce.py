@@ -35,6 +35,7 @@ def reduce_body(basis: ModalBasis, settings: SelectionConfig) -> ReducedModel:
     left to the file layer.
     """
     t0 = time.perf_counter()
+    basis = basis.attachment_residuals()
     names_all = basis.names
     weighted = basis.gram_mass if settings.weighting == "mass" else basis.gram_euclid
     chosen = selection.select_fields(weighted, settings, names_all)

@@ -1,0 +1,250 @@
+"""Run time against error, end to end: the flexible pendulum and the default crankshaft scene
+over mesh size, mode count, attachment modes, selection tolerance and time step.
+
+Every row runs the whole chain from the study tables — mesh, assembly, the verified solve
+(with the attachment modes when asked), GCMS fields, selection, reduction — and the scene,
+and times the offline part (mesh to reduced model) and the online part (the simulation).
+The error is measured as the flexible pendulum measures it: the largest difference over
+time divided by the reference's largest value.
+
+- pendulum: the tip's deviation from the rigid pendulum over the first half period, against
+  reference (a), the full-order co-rotated model on the study's mesh (docs/flexible_pendulum.md);
+- crankshaft: the nose's whirl, the bearing forces and the drive torque
+  (``auto_modes.outputs``), each against the finest and richest run of the sweep (the
+  study's mesh, Nm = 20, attachment modes, half the time step), reported separately and as
+  their maximum; that reference's own convergence is stated by comparing it with the same
+  run at the study's time step (``reference_convergence``).
+
+The rotor basis is not built yet: every row has ``basis = "full"``.
+
+    python workflows/pareto.py [--quick] [--out docs]
+
+writes OUT/pareto.json (``rows``: case, mesh_size, order, modes, attachment, basis,
+tolerance, time_step, coordinates, error, offline_s, online_s, total_s, and per output for
+the crankshaft) and OUT/pareto.png (error against total and against online time), and
+prints the cheapest settings for 10 %, 1 % and 0.1 % error.
+"""
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before NumPy: timings of one core
+
+import argparse
+import itertools
+import json
+import logging
+import sys
+import tempfile
+import time
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+from auto_modes import OUTPUTS, errors, outputs  # noqa: E402
+
+TARGETS = (0.1, 0.01, 0.001)
+
+
+def sweep(case: str, quick: bool) -> list[dict[str, Any]]:
+    """The settings of every run of ``case``: study overrides and their labels."""
+    if case == "pendulum":
+        sizes = (None,) if quick else (None, 0.02)
+        counts, steps = ((5, 10) if quick else (5, 10, 20)), ((1e-3,) if quick else (1e-3, 2e-3))
+        tolerances = (1e-6,) if quick else (1e-6, 1e-4)
+    else:
+        sizes = (None,) if quick else (None, 0.015)
+        counts, steps = ((5, 10) if quick else (5, 10, 20)), ((5e-5,) if quick else (5e-5, 1e-4))
+        tolerances = (1e-6,)
+    return [{"mesh_size": size, "modes": nm, "attachment": att, "tolerance": tol, "time_step": h}
+            for size, nm, att, tol, h in itertools.product(sizes, counts, ("none", "scene"),
+                                                           tolerances, steps)]
+
+
+def study(case: str, s: dict[str, Any]) -> dict:
+    """The study tables of one run."""
+    from gcms_fenicsx.config.study import default_config_text
+    from gcms_fenicsx.references import pendulum
+
+    raw = dict(pendulum.STUDY) if case == "pendulum" else tomllib.loads(default_config_text())
+    mesh = dict(raw.get("mesh", {}))
+    if s["mesh_size"] is not None:
+        mesh["size"] = s["mesh_size"]
+    return dict(raw, mesh=mesh, modes={"count": s["modes"]},
+                basis={"attachment": s["attachment"]},
+                selection={"svd_tolerance": s["tolerance"], "cosine_tolerance": 1e-12},
+                scene=dict(raw["scene"], time_step=s["time_step"]))
+
+
+def run_chain(raw: dict, folder: Path) -> tuple[Any, Any, float]:
+    """Mesh to reduced model through the pipeline's stages: (config, reduced model, seconds)."""
+    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.config.study import parse_config
+
+    cfg = parse_config(raw)
+    t0 = time.perf_counter()
+    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, folder)
+    basis = pipeline.basis_stage(chain.assembly.model, chain.modes, chain.body)
+    reduced = pipeline.reduction_stage(basis, cfg.selection)
+    return cfg, reduced, time.perf_counter() - t0
+
+
+def pendulum_reference(folder: Path) -> dict:
+    """Reference (a) on the study's mesh: the tip deviation and the rigid pendulum."""
+    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.config.study import parse_config
+    from gcms_fenicsx.dynamics.simulate import simulate_body
+    from gcms_fenicsx.fe.node_groups import group_weights
+    from gcms_fenicsx.references import pendulum
+    from gcms_fenicsx.references.full_order import full_order_body, sparse_factorization
+
+    cfg = parse_config(dict(pendulum.STUDY))
+    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, folder)
+    model = chain.assembly.model
+    full = full_order_body(model, group_weights(chain.body, model.Vs))
+    rigid = pendulum.rigid_pendulum(full, np.array(cfg.scene.gravity), cfg.scene.end_time_s)
+    traj, _ = simulate_body(full, cfg.scene, factorize=sparse_factorization)
+    return {"rigid": rigid, "time": traj.time, "deviation": pendulum.tip_deviation(
+        rigid, traj.time, traj.groups["end_xL"]["position"])}
+
+
+def pendulum_error(reduced, cfg, ref: dict) -> tuple[float, float]:
+    """(error against (a), simulation seconds) of one reduced pendulum."""
+    from gcms_fenicsx.dynamics.body import body_from_reduced
+    from gcms_fenicsx.dynamics.simulate import simulate_body
+    from gcms_fenicsx.references import pendulum
+
+    t0 = time.perf_counter()
+    traj, summary = simulate_body(body_from_reduced(reduced), cfg.scene)
+    online = time.perf_counter() - t0
+    if not summary["complete"]:
+        return float("nan"), online
+    d = pendulum.tip_deviation(ref["rigid"], traj.time, traj.groups["end_xL"]["position"])
+    # runs with another time step are compared at the reference's recorded times
+    d_ref = np.stack([np.interp(traj.time, ref["time"], ref["deviation"][:, k])
+                      for k in range(3)], axis=1)
+    return pendulum.deviation_error(traj.time, d, d_ref, ref["rigid"].half_period_s), online
+
+
+def crankshaft_outputs(reduced, cfg, folder: Path, tag: str) -> tuple[dict, float, np.ndarray]:
+    from gcms_fenicsx.dynamics.results import read_results
+    from gcms_fenicsx.dynamics.simulate import simulate_to_file
+
+    path = folder / f"{tag}.h5"
+    t0 = time.perf_counter()
+    simulate_to_file(reduced, cfg.scene, path)
+    return outputs(path), time.perf_counter() - t0, read_results(path).time
+
+
+def on_times(out: dict, t: np.ndarray, t_ref: np.ndarray) -> dict:
+    """Outputs recorded at times ``t`` interpolated to ``t_ref``."""
+    return {k: np.stack([np.interp(t_ref, t, v[:, j]) for j in range(v.shape[1])], axis=1)
+            for k, v in out.items()}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--out", type=Path, default=Path("docs"))
+    args = parser.parse_args()
+    logging.disable(logging.INFO)
+    rows: list[dict] = []
+    convergence: dict[str, Any] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        ref = pendulum_reference(tmp)
+        for s in sweep("pendulum", args.quick):
+            cfg, reduced, offline = run_chain(study("pendulum", s), tmp)
+            error, online = pendulum_error(reduced, cfg, ref)
+            rows.append(_row("pendulum", cfg, s, reduced, error, offline, online))
+            print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
+        finest = {"mesh_size": None, "modes": 20, "attachment": "scene", "tolerance": 1e-6,
+                  "time_step": 2.5e-5}
+        cfg, reduced, _ = run_chain(study("crankshaft", finest), tmp)
+        reference, _, t_ref = crankshaft_outputs(reduced, cfg, tmp, "reference")
+        coarse = dict(finest, time_step=5e-5)
+        cfg, reduced, _ = run_chain(study("crankshaft", coarse), tmp)
+        out, _, t = crankshaft_outputs(reduced, cfg, tmp, "reference_h")
+        convergence["crankshaft"] = {"reference": finest, "against_twice_its_time_step":
+                                     errors(on_times(out, t, t_ref), reference)}
+        for k, s in enumerate(sweep("crankshaft", args.quick)):
+            cfg, reduced, offline = run_chain(study("crankshaft", s), tmp)
+            out, online, t = crankshaft_outputs(reduced, cfg, tmp, f"c{k}")
+            e = errors(on_times(out, t, t_ref), reference)
+            rows.append(dict(_row("crankshaft", cfg, s, reduced, e["maximum"], offline, online),
+                             **{name: e[name] for name in OUTPUTS}))
+            print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "pareto.json").write_text(json.dumps(
+        {"rows": rows, "reference_convergence": convergence}, indent=1))
+    plot(rows, args.out / "pareto.png")
+    print(cheapest_table(rows))
+
+
+def _row(case: str, cfg, s: dict, reduced, error: float, offline: float, online: float) -> dict:
+    return {"case": case, "mesh_size": cfg.mesh.size, "order": cfg.mesh.order,
+            "modes": s["modes"], "attachment": s["attachment"], "basis": "full",
+            "tolerance": s["tolerance"], "time_step": s["time_step"],
+            "coordinates": reduced.dofs, "error": error, "offline_s": offline,
+            "online_s": online, "total_s": offline + online}
+
+
+def cheapest_table(rows: list[dict]) -> str:
+    """Per case and target error, the run of least total time that meets it."""
+    lines = ["| case | error ≤ | settings (mesh size, Nm, attachment, tolerance, h) | "
+             "coordinates | error | total s |", "|---|---|---|---|---|---|"]
+    for case in dict.fromkeys(r["case"] for r in rows):
+        for target in TARGETS:
+            meeting = [r for r in rows if r["case"] == case and r["error"] <= target]
+            if not meeting:
+                lines.append(f"| {case} | {target:g} | none of the sweep | | | |")
+                continue
+            r = min(meeting, key=lambda r: r["total_s"])
+            lines.append(f"| {case} | {target:g} | {r['mesh_size']:g} m, {r['modes']}, "
+                         f"{r['attachment']}, {r['tolerance']:g}, {r['time_step']:g} s | "
+                         f"{r['coordinates']} | {r['error']:.2e} | {r['total_s']:.1f} |")
+    return "\n".join(lines)
+
+
+def plot(rows: list[dict], path: Path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cases = list(dict.fromkeys(r["case"] for r in rows))
+    fig, axes = plt.subplots(len(cases), 2, figsize=(11, 4.2 * len(cases)), squeeze=False)
+    for i, case in enumerate(cases):
+        for j, key in enumerate(("total_s", "online_s")):
+            ax = axes[i, j]
+            for att, marker in (("none", "o"), ("scene", "s")):
+                pts = [(r[key], r["error"]) for r in rows
+                       if r["case"] == case and r["attachment"] == att]
+                ax.loglog(*zip(*pts), marker, ls="", label=f"attachment {att}", alpha=0.7)
+            front = _front([(r[key], r["error"]) for r in rows if r["case"] == case])
+            ax.loglog(*zip(*front), "k-", lw=1, label="Pareto front")
+            ax.set_xlabel(key.replace("_s", " time [s]"))
+            ax.set_ylabel("error")
+            ax.set_title(case)
+            ax.grid(alpha=0.3, which="both")
+            ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _front(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """The points no other is both faster and more accurate than, by time."""
+    front, best = [], float("inf")
+    for cost, error in sorted(p for p in points if np.isfinite(p[1])):
+        if error < best:
+            front.append((cost, error))
+            best = error
+    return front
+
+
+if __name__ == "__main__":
+    main()
