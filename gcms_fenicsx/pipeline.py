@@ -14,7 +14,7 @@ on every rank, distributed ones hold each rank's rows.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
@@ -123,12 +123,10 @@ def modes_stage(model: FEModel, settings: ModesConfig, progress: Progress = quie
     from gcms_fenicsx.fe.eigensolve import solve_free_free
     if not settings.attachment:
         return solve_free_free(model, settings, progress, memory_check)
-    from dataclasses import replace
-
-    from gcms_fenicsx.fe.attachment import attachment_loads
+    from gcms_fenicsx.fe.attachment import load_vectors
     if body is None:
         raise ValueError("attachment modes need the body's node groups: pass body")
-    loads = attachment_loads(model, body, settings.attachment)
+    loads = load_vectors(model, body, settings.attachment)
     modes = solve_free_free(model, settings, progress, memory_check, loads)
     return replace(modes, attachment_labels=tuple(a.label for a in settings.attachment))
 

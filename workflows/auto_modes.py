@@ -33,13 +33,14 @@ REFERENCE_MODES = 20
 OUTPUTS = ("nose whirl", "bearing forces", "drive torque")
 
 
-def outputs(results: Path) -> dict[str, Any]:
-    """The scene's outputs of interest from results.h5, per output a (time, components) array."""
+def outputs(results: Path | Any) -> dict[str, Any]:
+    """The scene's outputs of interest from results.h5 (a path, or the file as
+    ``read_results`` returned it), per output a (time, components) array."""
     import numpy as np
 
     from gcms_fenicsx.dynamics.results import joint_force, read_results
 
-    r = read_results(results)
+    r = read_results(results) if isinstance(results, Path) else results
     torque = [i for i, row in enumerate(r.rows) if row["kind"] == "drive_moment"]
     return {"nose whirl": r.groups["end_x0"]["position"][:, 1:],
             "bearing forces": np.hstack([joint_force(r.rows, r.multipliers, j)

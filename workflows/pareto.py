@@ -137,7 +137,9 @@ def crankshaft_outputs(reduced, cfg, folder: Path, tag: str) -> tuple[dict, floa
     path = folder / f"{tag}.h5"
     t0 = time.perf_counter()
     simulate_to_file(reduced, cfg.scene, path)
-    return outputs(path), time.perf_counter() - t0, read_results(path).time
+    online = time.perf_counter() - t0
+    results = read_results(path)
+    return outputs(results), online, results.time
 
 
 def on_times(out: dict, t: np.ndarray, t_ref: np.ndarray) -> dict:

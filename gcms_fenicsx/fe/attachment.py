@@ -19,7 +19,7 @@ from gcms_fenicsx.fe.mesh import BodyMesh
 from gcms_fenicsx.fe.node_groups import group_weights
 
 
-def attachment_loads(model: FEModel, body: BodyMesh,
+def load_vectors(model: FEModel, body: BodyMesh,
                      loads: tuple[AttachmentLoad, ...]) -> np.ndarray:
     """This rank's rows of the nodal load vectors (3 n_owned × len(loads)), node-major.
     Collective."""

@@ -22,6 +22,11 @@ RIGID_FIELDS = ("1", "X", "Y", "Z")
 AXES = "xyz"
 
 
+def phi_columns(fields: np.ndarray) -> np.ndarray:
+    """The columns of Φ = F ⊗ I3 of the fields ``fields``: (f, l) is column 3f + l."""
+    return (3 * np.asarray(fields)[:, None] + np.arange(3)).ravel()
+
+
 def field_names(mode_count: int, attachment_count: int = 0) -> tuple[str, ...]:
     """'1', 'X', 'Y', 'Z', then 'phi{m}_{k}' for mode m (1-based) and component k ∈ {x, y, z},
     then 'att{a}_{k}' for attachment mode a."""
@@ -77,7 +82,7 @@ class ModalBasis:
             raise ValueError(f"{count} modes asked of a basis of {self.mode_count}")
         first = len(RIGID_FIELDS) + 3 * count
         keep = np.r_[:first, len(RIGID_FIELDS) + 3 * self.mode_count:self.field_count]
-        columns = (3 * keep[:, None] + np.arange(3)).ravel()
+        columns = phi_columns(keep)
         return replace(self, fields=self.fields[:, keep],
                        gram_mass=self.gram_mass[np.ix_(keep, keep)],
                        gram_euclid=self.gram_euclid[np.ix_(keep, keep)],

@@ -20,7 +20,8 @@ import scipy.linalg
 from gcms_fenicsx.config.selection import SelectionConfig
 from gcms_fenicsx.files.reduced_model import ReducedModel
 from gcms_fenicsx.reduction import selection
-from gcms_fenicsx.reduction.modal_basis import ModalBasis, reduced_mass, symmetric
+from gcms_fenicsx.reduction.modal_basis import (ModalBasis, phi_columns, reduced_mass,
+                                                 symmetric)
 from gcms_fenicsx.runtime.errors import ComputationFailed
 
 
@@ -52,7 +53,7 @@ def reduce_body(basis: ModalBasis, settings: SelectionConfig) -> ReducedModel:
     t0 = time.perf_counter()
     F = basis.fields[:, kept] @ T
     G = symmetric(T.T @ G_kept @ T)  # round-off in Tᵀ G T grows with ‖T‖²
-    columns = (3 * kept[:, None] + np.arange(3)).ravel()
+    columns = phi_columns(kept)
     T3 = np.kron(T, np.eye(3))
     Mr = reduced_mass(G)
     Kr = symmetric(T3.T @ basis.stiffness[np.ix_(columns, columns)] @ T3)
