@@ -114,7 +114,8 @@ def simulation_summary(summary: dict) -> str:
     return "\n".join([
         f"simulation: {summary['steps']} steps to t = {summary['time_reached_s']:.6g} s, "
         f"{state}",
-        f"  {summary['reduced_dofs']} coordinates, {summary['constraint_rows']} constraint rows, "
+        f"  {summary['reduced_dofs']} coordinates ({summary['elasticity']} elasticity), "
+        f"{summary['constraint_rows']} constraint rows, "
         f"{_number(summary['steps_per_second'], '.0f')} steps/s, "
         f"{_number(summary['newton_iterations_mean'], '.2f')} Newton iterations per step",
         f"  relative energy drift {_number(summary['energy_drift_rel'], '.2e')}",

@@ -1,7 +1,7 @@
 """The stages of a study as plain functions on plain data (docs/design.md §1).
 
     mesh_stage ─► body_mesh ─► assembly_stage ─► modes_stage ─► basis_stage
-               ─► reduction_stage ─► simulation_stage
+               ─► reduction_stage [─► svk_stage] ─► simulation_stage
 
 Each stage takes the tables and products it uses and returns a frozen product; none reads
 the whole study, writes a file of a command's or prints anything but progress. ``commands``
@@ -18,6 +18,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
+import numpy as np
 from geometry.element_order import element_order_warning
 from geometry.estimate import estimate_mesh
 from geometry.params import Geometry, MeshParams
@@ -29,6 +30,7 @@ from gcms_fenicsx.dynamics.scene import Scene
 from gcms_fenicsx.dynamics.simulate import simulate_to_file
 from gcms_fenicsx.files.outputs import on_rank0
 from gcms_fenicsx.files.reduced_model import ReducedModel
+from gcms_fenicsx.files.svk_data import SVKCoefficients
 from gcms_fenicsx.runtime.progress import Progress, quiet
 
 from geometry.info import MeshInfo
@@ -170,6 +172,18 @@ def reduction_stage(basis: ModalBasis, settings: SelectionConfig, progress: Prog
     from gcms_fenicsx.reduction.reduce import reduce_body
     progress("selection and reduced matrices")
     return reduce_body(basis, settings)
+
+
+def svk_stage(mesh_file: Path, fields: np.ndarray | None, material: Material,
+              progress: Progress = quiet, comm: Any = None
+              ) -> tuple[SVKCoefficients | None, dict]:
+    """The Saint Venant–Kirchhoff coefficients of the reduced fields F (the mesh file's node
+    order, rank 0) on the mesh in ``mesh_file`` (``fe.svk_coefficients``), on rank 0 (None
+    on the others), with their report: size, quadrature points, seconds. Collective."""
+    from gcms_fenicsx.fe.mesh import read_mesh
+    from gcms_fenicsx.fe.svk_coefficients import svk_coefficients
+    mesh = read_mesh(mesh_file, {}, _world(comm)).mesh
+    return svk_coefficients(mesh, fields, material, progress)
 
 
 def simulation_stage(model: ReducedModel, scene: Scene, results: Path,

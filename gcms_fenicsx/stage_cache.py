@@ -9,7 +9,9 @@ and a content checksum:
   the mode count: a file with more modes than asked serves, restricted to the lowest ones
   (a leading block), and one whose verified Sylvester count reaches past
   ``max_frequency_hz`` serves that band;
-- the reduced model, ``reduced.h5``: key ``input_hash`` over REDUCED_MODEL_TABLES.
+- the reduced model, ``reduced.h5``: key ``input_hash`` over REDUCED_MODEL_TABLES, and the
+  elastic law where ``[scene] elasticity = "svk"`` adds its coefficients
+  (``StudyConfig.reduced_key``), which are computed on the modes' own mesh.
 
 Every command writes ``cache.json``, the SHA-256 of each cached file's bytes (mesh.msh,
 mesh.json, modes.h5, reduced.h5), and a listed file is hashed and compared before it is
@@ -30,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gcms_fenicsx.config.study import MESH_TABLES, REDUCED_MODEL_TABLES, StudyConfig
+from gcms_fenicsx.config.study import MESH_TABLES, StudyConfig
 from gcms_fenicsx.files.modes_file import ModesFileError, StoredModes, read_modes
 from gcms_fenicsx.files.reduced_model import ReducedModel, ReducedModelError, read_reduced
 from gcms_fenicsx.reduction.spectrum import clusters, cut_cluster_warning
@@ -125,7 +127,8 @@ def _intact(out: Path, names: tuple[str, ...], progress: Progress, what: str) ->
 def plan(cfg: StudyConfig, out: Path, upto: str, fresh: bool, progress: Progress) -> Plan:
     """What to reuse for a command that needs the stages up to ``upto`` ("mesh", "modes",
     "reduced"): the furthest reusable product, and nothing above it that it makes
-    unnecessary. Mode shapes asked for (``[outputs]``) need the modes and the mesh."""
+    unnecessary. Mode shapes asked for (``[outputs]``) need the modes and the mesh, and so
+    does a reduced model with SVK coefficients (integrated on the mesh) that must be built."""
     out = Path(out)
     if fresh:
         progress("--fresh: every stage is computed, nothing in the output folder is reused")
@@ -134,13 +137,15 @@ def plan(cfg: StudyConfig, out: Path, upto: str, fresh: bool, progress: Progress
     reduced = cached_reduced(cfg, out, progress) if upto == "reduced" else None
     if reduced is not None and not shapes:
         return Plan(reduced=reduced)
+    on_mesh = shapes or (upto == "reduced" and reduced is None and cfg.needs_svk)
     modes = cached_modes(cfg, out, progress) if upto != "mesh" else None
-    if modes is not None and not shapes:
+    if modes is not None and not on_mesh:
         return Plan(modes=modes, reduced=reduced)
     mesh = cached_mesh(cfg, out, progress)
-    if shapes and modes is not None and mesh is None:
-        progress("modes: the cached modes' mesh cannot be reused, so neither can they "
-                 "(mode shapes are written on that mesh); solving again")
+    if on_mesh and modes is not None and mesh is None:
+        why = "mode shapes are written" if shapes else "the SVK coefficients are integrated"
+        progress(f"modes: the cached modes' mesh cannot be reused, so neither can they "
+                 f"({why} on that mesh); solving again")
         modes = None
     return Plan(mesh=mesh, modes=modes, reduced=reduced)
 
@@ -249,8 +254,13 @@ def cached_reduced(cfg: StudyConfig, out: Path, progress: Progress) -> ReducedMo
         progress(f"reduced model: {path} has no content checksums (schema "
                  f"{model.schema_version}, an older gcms-fenicsx); rebuilding it")
         return None
-    if model.input_hash != cfg.digest(*REDUCED_MODEL_TABLES):
+    if model.input_hash != cfg.reduced_key():
         progress(f"reduced model: {path} was made from other inputs; rebuilding it")
+        return None
+    if cfg.needs_svk != (model.svk is not None):
+        progress(f"reduced model: {path} {'lacks' if cfg.needs_svk else 'has'} the SVK "
+                 "coefficients the scene's elasticity "
+                 f"{'needs' if cfg.needs_svk else 'does not use'}; rebuilding it")
         return None
     progress(f"reduced model: reusing {path} ({model.dofs} coordinates; inputs unchanged)")
     return model

@@ -20,7 +20,7 @@ from typing import Any
 from geometry.params import surface_groups
 
 from gcms_fenicsx import pipeline, stage_cache
-from gcms_fenicsx.config.study import MESH_TABLES, REDUCED_MODEL_TABLES, StudyConfig
+from gcms_fenicsx.config.study import MESH_TABLES, StudyConfig
 from gcms_fenicsx.files.modes_file import StoredModes, write_modes
 from gcms_fenicsx.files.outputs import on_rank0, write_json
 from gcms_fenicsx.files.reduced_model import ReducedModel, write_reduced
@@ -160,6 +160,9 @@ def _modes(cfg: StudyConfig, folder: Path, progress: Progress, comm: Any,
     check_groups(cfg)
     estimate = estimate_mesh(cfg.geometry, cfg.mesh)
     _check_memory(cfg, estimate.dofs, estimate.nodes, cfg.modes.count or 1)
+    if cfg.needs_svk and cfg.modes.count is not None:   # the most fields the modes can give
+        from gcms_fenicsx.fe.svk_coefficients import check_memory
+        check_memory(4 + 3 * (cfg.modes.count + len(cfg.modes.attachment or ())))
     product, mesh_doc = _mesh(cfg, folder, progress, comm, plan, stages)
     t0 = time.perf_counter()
     body = pipeline.body_mesh(product, comm)
@@ -244,7 +247,7 @@ def with_provenance(model: ReducedModel, cfg: StudyConfig, mesh: dict,
     """The model as reduced.h5 records it: the input hash of its tables (the cache key),
     the material and the mesh statistics."""
     material = {"E": cfg.material.E, "nu": cfg.material.nu, "rho": cfg.material.rho}
-    return replace(model, input_hash=cfg.digest(*REDUCED_MODEL_TABLES), material=material,
+    return replace(model, input_hash=cfg.reduced_key(), material=material,
                    mesh=dict(mesh, ndofs=ndofs))
 
 
@@ -257,6 +260,9 @@ def selection_summary(report: dict) -> str:
         f"cond(Mr) {report['cond_mr_before']:.2e} -> {report['cond_mr_after']:.2e}",
         f"  max relative frequency error (pruning) {report['max_rel_frequency_error']:.2e}; "
         f"selection + reduction {report['timings_s']['selection_and_reduction']:.2f} s",
+        *([f"  Saint Venant-Kirchhoff coefficients of {svk['fields']} fields: "
+           f"{svk['bytes'] / 1e6:.1f} MB, {svk['quadrature_points']} quadrature points, "
+           f"{svk['seconds']:.1f} s"] if (svk := report.get("svk_coefficients")) else []),
     ])
 
 
@@ -284,18 +290,36 @@ def build(cfg: StudyConfig, folder: Path, progress: Progress, comm: Any,
         record_stage(stages, "reduction", "reused", 0.0)
         texts.append(f"reduced model: reused ({plan.reduced.dofs} coordinates)")
         return Built(texts, stages, basis, plan.reduced)
-    model = on_rank0(comm, _reduce, cfg, folder, basis, progress, stages, texts)
+    t0 = time.perf_counter()
+    model = on_rank0(comm, pipeline.reduction_stage, basis, cfg.selection, progress)
+    report = {}
+    if cfg.needs_svk:
+        mesh_file = plan.mesh.msh_path if plan.mesh is not None else folder / "mesh.msh"
+        if "mesh" not in stages:                  # the cached mesh, read for the coefficients
+            record_stage(stages, "mesh", "reused", 0.0)
+        model, report = _with_svk(cfg, model, mesh_file, progress, comm)
+    record_stage(stages, "reduction", "computed", time.perf_counter() - t0)
+    model = on_rank0(comm, _write_reduced, cfg, folder, model, report, stages, texts)
     return Built(texts, stages, basis, model if comm.rank == 0 else None)
 
 
-def _reduce(cfg: StudyConfig, folder: Path, basis: ModalBasis, progress: Progress,
-            stages: dict, texts: list[str]) -> ReducedModel:
-    t0 = time.perf_counter()
-    model = pipeline.reduction_stage(basis, cfg.selection, progress)
-    record_stage(stages, "reduction", "computed", time.perf_counter() - t0)
+def _with_svk(cfg: StudyConfig, model: ReducedModel, mesh_file: Path, progress: Progress,
+              comm: Any) -> tuple[ReducedModel, dict]:
+    """The model with the Saint Venant–Kirchhoff coefficients of its fields, integrated on
+    the mesh its modes were solved on (collective), and their report."""
+    svk, report = pipeline.svk_stage(mesh_file, model.fields if comm.rank == 0 else None,
+                                     cfg.material, progress, comm)
+    return replace(model, svk=svk), report
+
+
+def _write_reduced(cfg: StudyConfig, folder: Path, model: ReducedModel, svk_report: dict,
+                   stages: dict, texts: list[str]) -> ReducedModel:
+    """reduced.h5 and selection.json (with the SVK coefficients' size and time, if any)."""
     modes_doc = json.loads((folder / "modes.json").read_text())
     report = dict(model.selection, eigensolve_s=modes_doc["timings_s"].get("eigensolve"),
                   stages=stages)
+    if svk_report:
+        report["svk_coefficients"] = svk_report
     model = with_provenance(replace(model, selection=report), cfg, modes_doc["mesh"],
                             modes_doc["ndofs"])
     write_reduced(folder / "reduced.h5", model)

@@ -24,6 +24,8 @@ GRAVITY = 9.81
 DATA = Path(__file__).resolve().parent / "data"
 #: reduced.h5 of ``beam_study(6)``: 6 elastic modes, 22 fields, 66 coordinates.
 BEAM6 = DATA / "beam6.h5"
+#: The same body with the Saint Venant–Kirchhoff coefficients (``beam_svk_study(6)``).
+BEAM6_SVK = DATA / "beam6_svk.h5"
 
 #: The test beam, with cosine_tolerance = 1e-12 spelled out (the default since a looser one
 #: was found to drop the Poisson-contraction fields of slender beams, which the statics and
@@ -50,6 +52,17 @@ cosine_tolerance = 1e-12
 def beam_study(count: int = 6) -> str:
     """The study of the test beam with ``count`` elastic modes (no [scene])."""
     return BEAM_STUDY.replace("{count}", str(count))
+
+
+def beam_svk_study(count: int = 6) -> str:
+    """The test beam's study with a free-floating scene whose elastic law is Saint
+    Venant–Kirchhoff, so ``gcms reduce`` adds the SVK coefficients to reduced.h5."""
+    return beam_study(count) + """
+[scene]
+end_time = 0.01
+time_step = 1e-4
+elasticity = "svk"
+"""
 
 
 def linear_static_displacement(body: Body, sc, force: np.ndarray, group: str) -> np.ndarray:

@@ -7,8 +7,13 @@ pendulum over the first half period of the swing. References, on every FE node:
 (a) the same co-rotated linear-elastic model on all 3N DOFs (SciPy sparse, same integrator);
 (b) geometrically nonlinear Saint Venant–Kirchhoff, internal forces assembled by dolfinx.
 
-GCMS runs for Nm = 5 … 30 elastic modes and several selection tolerances; the error is
-max_t |d − d_ref| / max_t |d_ref|. The same study is repeated with co-rotated Rayleigh
+GCMS runs for Nm = 5 … 30 elastic modes and several selection tolerances, with the
+co-rotated linear elastic law and (undamped) the geometrically exact Saint Venant–Kirchhoff
+law of ``[scene] elasticity = "svk"`` (docs/design.md §5b), each without and with the
+attachment modes at the pin (``[basis] attachment = "scene"``); the error is
+max_t |d − d_ref| / max_t |d_ref|. Every row carries ``elasticity``, ``modes``,
+``attachment``, ``error_vs_a``, ``error_vs_b`` and ``steps_per_second``; an SVK row also the
+time and memory of its coefficients. The same study is repeated with co-rotated Rayleigh
 damping (β = 4 ms: about 5 % of critical in the first pinned bending mode, typical of a
 soft polymer), against (a) only: co-rotated damping is not combined with SVK. Wall times of every simulation are measured in the same run (one BLAS
 thread), and the speedups are their ratios.
@@ -38,11 +43,15 @@ import sys
 import tempfile
 import time
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 
 MODE_COUNTS = (5, 10, 15, 20, 30)
+#: Eigenmode counts of the SVK rows (with and without attachment modes; the coefficients of
+#: Nm = 30 with attachment modes would hold 36 M numbers).
+SVK_MODE_COUNTS = (5, 10, 15, 20)
 TOLERANCES = (1e-10, 1e-6, 1e-4, 1e-3)   # cosine and SVD tolerance together
 DAMPING_BETA_S = 4e-3
 SWEEP_E_PA = (3e9, 1e9, 3e8)       # with the study's 1e8 from the main table
@@ -64,22 +73,27 @@ def setup(quick: bool):
 
     study = dict(pendulum.STUDY, modes={"count": max(MODE_COUNTS)})
     cfg = parse_config(study, "flexible pendulum")
+    attached = parse_config(dict(study, basis={"attachment": "scene"}), "flexible pendulum")
     with tempfile.TemporaryDirectory() as tmp:
         body_mesh = pipeline.body_mesh(pipeline.mesh_stage(cfg.geometry, cfg.mesh, Path(tmp)))
     t0 = time.perf_counter()
     model = pipeline.assembly_stage(body_mesh.mesh, cfg.material).model
-    modes = pipeline.modes_stage(model, cfg.modes)
+    modes = {"none": pipeline.modes_stage(model, cfg.modes),
+             "scene": pipeline.modes_stage(model, attached.modes, body=body_mesh)}
     offline_s = time.perf_counter() - t0
     groups = group_weights(body_mesh, model.Vs)
     scene = cfg.scene if not quick else replace(cfg.scene, end_time_s=0.3)
     return cfg, body_mesh, model, modes, groups, scene, offline_s
 
 
-def gcms_body(model, modes, body_mesh, nm: int, tolerance: float | None):
-    """(body, reduction report, reduction wall time) for nm modes at one tolerance."""
+def gcms_body(model, modes, body_mesh, nm: int, tolerance: float | None, svk: bool = False):
+    """(body, reduction report, reduction wall time, SVK law and its report) for nm modes at
+    one tolerance; the law only for ``svk``, its coefficients' time inside the wall time."""
     from gcms_fenicsx import pipeline
     from gcms_fenicsx.config.selection import SelectionConfig
     from gcms_fenicsx.dynamics.body import body_from_reduced
+    from gcms_fenicsx.dynamics.svk import SVKLaw
+    from gcms_fenicsx.fe.svk_coefficients import svk_coefficients
 
     selection = SelectionConfig() if tolerance is None else \
         SelectionConfig(cosine_tolerance=tolerance ** 2, svd_tolerance=tolerance)
@@ -87,12 +101,22 @@ def gcms_body(model, modes, body_mesh, nm: int, tolerance: float | None):
     reduction = pipeline.reduction_stage(
         pipeline.basis_stage(model, modes.lowest(nm), body_mesh), selection)
     body = body_from_reduced(reduction)
-    return body, reduction.selection, time.perf_counter() - t0
+    law, report = None, {}
+    if svk:
+        coefficients, report = svk_coefficients(body_mesh.mesh, reduction.fields,
+                                                model.material)
+        law = SVKLaw.of(coefficients, body)
+    return body, reduction.selection, time.perf_counter() - t0, law, report
 
 
-def run(body, scene, **kwargs) -> dict:
+def run(body, scene, law=None, **kwargs) -> dict:
     from gcms_fenicsx.dynamics.simulate import simulate_body
+    from gcms_fenicsx.dynamics.svk import svk_state
 
+    if law is not None:
+        kwargs["elastic"] = partial(svk_state, body, law)
+        scene = replace(scene, solver=replace(scene.solver, tolerance=SVK_TOLERANCE,
+                                              max_iterations=60))
     t0 = time.perf_counter()
     traj, summary = simulate_body(body, scene, **kwargs)
     wall = time.perf_counter() - t0
@@ -118,14 +142,32 @@ def references(full, model, scene) -> dict:
     return refs
 
 
-def reductions(model, modes, body_mesh, quick: bool) -> list[tuple]:
-    """(Nm, tolerance, body, report, reduction wall time) for every GCMS case of the study."""
+def reductions(model, modes, body_mesh, quick: bool) -> list[dict]:
+    """Every GCMS case of the study: the co-rotated law for each Nm and tolerance without
+    attachment modes and at the default tolerance with them; the SVK law at the default
+    tolerance, without and with them."""
     counts = (5, 10, 20) if quick else MODE_COUNTS
-    return [(nm, tol, *gcms_body(model, modes, body_mesh, nm, tol))
-            for nm in counts for tol in (None, *((1e-4,) if quick else TOLERANCES))]
+    svk_counts = (5, 10) if quick else SVK_MODE_COUNTS
+    plan = [("corotated", "none", nm, tol) for nm in counts
+            for tol in (None, *((1e-4,) if quick else TOLERANCES))]
+    plan += [("corotated", "scene", nm, None) for nm in counts]
+    plan += [("svk", attachment, nm, None) for attachment in ("none", "scene")
+             for nm in svk_counts]
+    cases = []
+    for elasticity, attachment, nm, tol in plan:
+        body, report, reduce_s, law, svk_report = gcms_body(
+            model, modes[attachment], body_mesh, nm, tol, svk=elasticity == "svk")
+        cases.append({"elasticity": elasticity, "attachment": attachment, "modes": nm,
+                      "tolerance": tol, "body": body, "report": report,
+                      "reduce_s": reduce_s, "law": law, "svk": svk_report})
+        if elasticity == "svk":
+            log(f"  SVK coefficients, Nm = {nm} + attachment {attachment}: "
+                f"{svk_report['fields']} fields, {svk_report['bytes'] / 1e6:.1f} MB, "
+                f"{svk_report['seconds']:.1f} s")
+    return cases
 
 
-def study(damping: float, model, full, rigid, cases: list[tuple], scene) -> dict:
+def study(damping: float, model, full, rigid, cases: list[dict], scene) -> dict:
     from gcms_fenicsx.references import pendulum
 
     scene = replace(scene, damping_beta=damping)
@@ -147,25 +189,34 @@ def study(damping: float, model, full, rigid, cases: list[tuple], scene) -> dict
                           for key, r in refs.items()},
            "gcms": [], "curves": {"time": refs["a"]["time"].tolist(),
                                   **{key: d.tolist() for key, d in dev.items()}}}
-    for nm, tol, body, report, reduce_s in cases:
-        r = run(body, scene)
+    for case in cases:
+        if case["elasticity"] == "svk" and damping:
+            continue    # co-rotated damping is not combined with SVK
+        body, report, tol, nm = case["body"], case["report"], case["tolerance"], case["modes"]
+        r = run(body, scene, case["law"])
         d = pendulum.tip_deviation(rigid, r["time"], r["tip"])
-        row = {"modes": nm, "tolerance": "default" if tol is None else tol,
+        row = {"elasticity": case["elasticity"], "modes": nm, "attachment": case["attachment"],
+               "tolerance": "default" if tol is None else tol,
                "reduced_dofs": body.dofs, "columns_before": report["columns_before"],
                "pruning_error": report["max_rel_frequency_error"],
                "error_vs_a": pendulum.deviation_error(r["time"], d, dev["a"], until),
                "error_vs_b": (pendulum.deviation_error(r["time"], d, dev["b"], until)
                               if "b" in dev else None),
-               "wall_s": r["wall_s"], "reduction_s": reduce_s,
+               "wall_s": r["wall_s"], "reduction_s": case["reduce_s"],
                "steps_per_second": r["summary"]["steps_per_second"],
                "newton_iterations_mean": r["summary"]["newton_iterations_mean"],
                "speedup_vs_a": refs["a"]["wall_s"] / r["wall_s"],
                "speedup_vs_b": (refs["b"]["wall_s"] / r["wall_s"] if "b" in refs else None)}
+        if case["svk"]:
+            row.update(coefficients_s=case["svk"]["seconds"],
+                       coefficients_bytes=case["svk"]["bytes"],
+                       coefficient_fields=case["svk"]["fields"])
         out["gcms"].append(row)
-        if tol is None and nm == 10:
-            out["curves"]["gcms10"] = d.tolist()
-        log(f"  Nm = {nm:2d}, tolerance {row['tolerance']}: {body.dofs} DOFs, error vs "
-            f"(a) {row['error_vs_a']:.2%}, vs (b) {_pct(row['error_vs_b'])}")
+        if tol is None and nm == 10 and case["attachment"] == "none":
+            out["curves"][f"gcms10_{case['elasticity']}"] = d.tolist()
+        log(f"  {case['elasticity']}, Nm = {nm:2d}, attachment {case['attachment']}, tolerance "
+            f"{row['tolerance']}: {body.dofs} DOFs, error vs (a) {row['error_vs_a']:.2%}, "
+            f"vs (b) {_pct(row['error_vs_b'])}, {row['steps_per_second']:.0f} steps/s")
     return out
 
 
@@ -197,7 +248,7 @@ def stiffness_sweep(cfg, body_mesh, groups, scene, quick: bool) -> list[dict]:
                "a_vs_b": pendulum.deviation_error(refs["a"]["time"], dev["a"], dev["b"], until),
                "reference_wall_s": {key: r["wall_s"] for key, r in refs.items()}}
         for nm in (10, 20):
-            body, _, _ = gcms_body(model, modes, body_mesh, nm, None)
+            body, *_ = gcms_body(model, modes, body_mesh, nm, None)
             r = run(body, scene)
             d = pendulum.tip_deviation(rigid, r["time"], r["tip"])
             row[f"gcms{nm}_vs_a"] = pendulum.deviation_error(r["time"], d, dev["a"], until)
@@ -234,13 +285,14 @@ def table(result: dict) -> str:
     lines = [f"damping β = {result['damping_beta_s']:g} s: tip deviation up to "
              f"{dev['a']:.2%} of L (a){b_text}; references: {times} "
              f"({result['full_dofs']:,} DOFs)", "",
-             "| Nm | tolerance | reduced DOFs | pruning error | error vs (a) | error vs (b) "
-             "| GCMS s | steps/s | speedup vs (a) | speedup vs (b) |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "| elasticity | Nm | attachment | tolerance | reduced DOFs | pruning error "
+             "| error vs (a) | error vs (b) | GCMS s | steps/s | speedup vs (a) | speedup vs (b) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in result["gcms"]:
         tol = r["tolerance"] if isinstance(r["tolerance"], str) else f"{r['tolerance']:.0e}"
         speedup_b = "" if r["speedup_vs_b"] is None else f"{r['speedup_vs_b']:.0f}×"
-        lines.append(f"| {r['modes']} | {tol} | {r['reduced_dofs']} | {r['pruning_error']:.1e} "
+        lines.append(f"| {r['elasticity']} | {r['modes']} | {r['attachment']} | {tol} "
+                     f"| {r['reduced_dofs']} | {r['pruning_error']:.1e} "
                      f"| {r['error_vs_a']:.2%} | {_pct(r['error_vs_b'])} | {r['wall_s']:.2f} "
                      f"| {r['steps_per_second']:.0f} | {r['speedup_vs_a']:.0f}× "
                      f"| {speedup_b} |")
@@ -258,8 +310,9 @@ def plot(results: list[dict], path: Path) -> None:
         c = res["curves"]
         t = np.array(c["time"])
         for key, style, label in (("a", "-", "(a) co-rotated, all DOFs"),
-                                  ("b", "--", "(b) Saint Venant–Kirchhoff"),
-                                  ("gcms10", ":", "GCMS, Nm = 10")):
+                                  ("b", "--", "(b) Saint Venant–Kirchhoff, all DOFs"),
+                                  ("gcms10_corotated", ":", "GCMS co-rotated, Nm = 10"),
+                                  ("gcms10_svk", "-.", "GCMS SVK, Nm = 10")):
             if key not in c:
                 continue
             d = np.array(c[key])
@@ -271,16 +324,22 @@ def plot(results: list[dict], path: Path) -> None:
         curve_ax.set_title(f"damping β = {res['damping_beta_s']:g} s")
         curve_ax.legend(fontsize=8)
         curve_ax.grid(alpha=0.3)
-        default = [r for r in res["gcms"] if r["tolerance"] == "default"]
-        nms = [r["modes"] for r in default]
-        err_ax.semilogy(nms, [r["error_vs_a"] for r in default], "o-", label="vs (a)")
-        if default and default[0]["error_vs_b"] is not None:
-            err_ax.semilogy(nms, [r["error_vs_b"] for r in default], "s-", label="vs (b)")
+        for elasticity, attachment, marker in (("corotated", "none", "o"),
+                                               ("corotated", "scene", "^"),
+                                               ("svk", "none", "s"), ("svk", "scene", "D")):
+            rows = [r for r in res["gcms"] if r["tolerance"] == "default"
+                    and r["elasticity"] == elasticity and r["attachment"] == attachment]
+            if not rows:
+                continue
+            nms = [r["modes"] for r in rows]
+            reference = "b" if elasticity == "svk" else "a"
+            err_ax.semilogy(nms, [r[f"error_vs_{reference}"] for r in rows], marker + "-",
+                            label=f"{elasticity}, attachment {attachment}, vs ({reference})")
         err_ax.axhline(0.01, color="C0", lw=0.7, ls=":")
         err_ax.axhline(0.03, color="C1", lw=0.7, ls=":")
         err_ax.set_xlabel("elastic modes Nm")
         err_ax.set_ylabel("max |d − d_ref| / max |d_ref|")
-        err_ax.set_title("GCMS error (default selection)")
+        err_ax.set_title("GCMS error against its own law's reference (default selection)")
         err_ax.legend()
         err_ax.grid(alpha=0.3, which="both")
     fig.tight_layout()
@@ -303,7 +362,8 @@ def main() -> None:
         Path(f"{args.out}_sweep.json").write_text(json.dumps(rows, indent=1))
         print(sweep_table(rows))
         return
-    log(f"setup: {model.ndofs} DOFs, {len(modes.elastic_eigenvalues)} modes in {offline_s:.1f} s")
+    log(f"setup: {model.ndofs} DOFs, {len(modes['none'].elastic_eigenvalues)} modes (and "
+        f"{len(modes['scene'].attachment_labels)} attachment modes) in {offline_s:.1f} s")
     full = full_order_body(model, groups)
     rigid = pendulum.rigid_pendulum(full, np.array(scene.gravity), scene.end_time_s)
     cases = reductions(model, modes, body_mesh, args.quick)

@@ -58,6 +58,20 @@ class StudyConfig:
         payload["gcms_fenicsx_version"] = __version__
         return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
 
+    @property
+    def needs_svk(self) -> bool:
+        """Whether the scene's elastic law needs the Saint Venant–Kirchhoff coefficients in the
+        reduced model (``[scene] elasticity = "svk"``)."""
+        return self.scene is not None and self.scene.elasticity == "svk"
+
+    def reduced_key(self) -> str:
+        """The key of a cached reduced model: its tables' digest, and the elastic law when it
+        carries the SVK coefficients (a co-rotated study's key is the digest alone)."""
+        digest = self.digest(*REDUCED_MODEL_TABLES)
+        if not self.needs_svk:
+            return digest
+        return hashlib.sha256(json.dumps([digest, "svk"]).encode()).hexdigest()
+
     def modes_key(self) -> str:
         """The key of cached free-free modes: what the solve depends on apart from how many
         modes it returns (more modes than asked serve as well: fewer are a leading block)."""

@@ -4,9 +4,11 @@
 factorised once per run; the constraints and X Y enter by the Woodbury identity as a border
 solved once per step (docs/design.md §6). :class:`AssembledKKT` (the benchmarks' baseline,
 ``[scene.solver] jacobian = "assembled"``): the same exact S assembled densely and
-LU-factorised at every iteration — textbook Newton. Both have ``prepare`` (fix the
-linearisation and its frame R) and ``solve`` (a correction for the residuals r_l = Tᵀ r in
-that frame and g). NumPy only.
+LU-factorised at every iteration — textbook Newton. :class:`TangentKKT`: S = β' Mr plus the
+exact tangent of an elastic law that provides one (Saint Venant–Kirchhoff, ``svk``),
+assembled and inverted densely when prepared. All have ``prepare`` (fix the linearisation
+and its frame R) and ``solve`` (a correction for the residuals r_l = Tᵀ r in that frame and
+g). NumPy only.
 """
 from __future__ import annotations
 
@@ -143,3 +145,29 @@ class AssembledKKT:
         kkt = np.block([[S, C.T], [C, np.zeros((m, m))]])
         sol = -np.linalg.solve(kkt, np.concatenate([r, g]))
         return sol[:n], sol[n:]
+
+
+class TangentKKT:
+    """Newton corrections with S = β' Mr + ∂²V/∂q² (the elastic state's ``tangent()``), the
+    bordered matrix [S Cᵀ; C 0] assembled and inverted when prepared and reused by every
+    ``solve`` until the next ``prepare`` (dense bodies only)."""
+
+    def __init__(self, body: Body, constraints: Constraints, beta_p: float) -> None:
+        self.c = constraints
+        self.inertia = beta_p * np.asarray(body.mass)
+        self.n = body.dofs
+
+    def prepare(self, es: Any, U: np.ndarray, C: np.ndarray | None, exact: bool,
+                relinearise: bool = True) -> None:
+        """Linearise at ``es`` with the constraint rows C."""
+        n, m = self.n, self.c.count
+        self.R = es.rotation
+        C = C if m else np.zeros((0, n))
+        self.kkt_inverse = inverse(np.block([[self.inertia + es.tangent(), C.T],
+                                             [C, np.zeros((m, m))]]))
+
+    def solve(self, r_l: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(Δq, Δλ) for the residuals r_l = Tᵀ r (in the frame R of ``prepare``) and g."""
+        r = r_l.reshape(-1, 3).dot(self.R.T).ravel()
+        sol = -self.kkt_inverse.dot(np.concatenate([r, g]))
+        return sol[:self.n], sol[self.n:]

@@ -10,6 +10,8 @@ end_time = 1.0                 # s
 time_step = 1e-3               # s
 rho_inf = 0.8                  # spectral radius at infinite frequency, 0..1
 gravity = [0.0, 0.0, -9.81]    # m/s²
+elasticity = "corotated"       # or "svk": geometrically exact Saint Venant–Kirchhoff
+                               # (docs/design.md §5b; undamped, jacobian = "rotated")
 damping = { alpha = 0.0, beta = 0.0 }   # co-rotated Rayleigh: α Mr + β Kr on deformation rates
                                         # (relative to the body frame: a jointed body whose
                                         # frame follows its bending is damped by β, hardly α)
@@ -23,7 +25,8 @@ outputs = { groups = ["end_xL"], every = 1, energy = true, constraint_forces = t
 type = "revolute"              # spherical, revolute or fixed (to the ground)
 group = "end_x0"
 axis = [0.0, 1.0, 0.0]         # revolute (and a driven fixed joint)
-drive = { angular_velocity = 100.0, ramp_time = 0.05 }   # optional: prescribed rotation
+drive = { angular_velocity = 100.0, ramp_time = 0.05, ramp = "cosine" }   # optional:
+                               # prescribed rotation; ramp "cosine" or "cycloidal"
 
 [[scene.loads]]
 group = "end_xL"
@@ -73,24 +76,40 @@ LOAD_TIMES = ("constant", "ramp", "harmonic")
 #: 4e-2 at 0.16: second order in the step, with a large constant.
 DRIVE_STEP_WARNING_RAD = 0.05
 JACOBIANS = ("rotated", "exact", "assembled")
+#: ``[scene] elasticity``: co-rotated linear (``dynamics.corotated``) or Saint Venant–Kirchhoff
+#: with constant coefficients (``dynamics.svk``).
+ELASTICITIES = ("corotated", "svk")
+
+
+#: ``ramp`` of a drive: how θ̇ rises from 0 to Ω over the ramp time (``Drive``).
+DRIVE_RAMPS = ("cosine", "cycloidal")
 
 
 @dataclass(frozen=True)
 class Drive:
     """A prescribed rotation θ(t) about a joint's axis: speed Ω reached smoothly over ``ramp_time_s``.
 
-    θ̇(t) = Ω (1 − cos(π t / T)) / 2 for t < T, then Ω: continuous acceleration, so the
-    drive starts without a jerk in the constraint forces.
+    ``ramp = "cosine"``: θ̇(t) = Ω (1 − cos(π t / T)) / 2 for t < T, then Ω: continuous
+    acceleration, so the drive starts without a jerk in the constraint forces.
+    ``ramp = "cycloidal"``: θ̈(t) = (Ω / T)(1 − cos(2π t / T)), the spin-up of Kane, Ryan &
+    Banerjee (J. Guid. Control Dyn. 10(2), 1987): θ̇ = (Ω / T)(t − T/(2π) sin(2π t / T)),
+    θ = (Ω / T)(t²/2 + (T/(2π))² (cos(2π t / T) − 1)); acceleration and jerk continuous.
+    Both reach θ = Ω (t − T/2) for t ≥ T.
     """
 
     angular_velocity: float
     ramp_time_s: float = 0.0
+    ramp: str = "cosine"
 
     def angle(self, t: float) -> tuple[float, float, float]:
         """(θ, θ̇, θ̈) at time t."""
         W, T = self.angular_velocity, self.ramp_time_s
         if t >= T:
             return W * (t - 0.5 * T), W, 0.0
+        if self.ramp == "cycloidal":
+            c = 2.0 * math.pi / T
+            return (W / T * (0.5 * t * t + (math.cos(c * t) - 1.0) / (c * c)),
+                    W / T * (t - math.sin(c * t) / c), W / T * (1.0 - math.cos(c * t)))
         c = math.pi / T
         return (0.5 * W * (t - math.sin(c * t) / c), 0.5 * W * (1.0 - math.cos(c * t)),
                 0.5 * W * c * math.sin(c * t))
@@ -178,6 +197,7 @@ class Scene:
     damping_alpha: float = 0.0
     damping_beta: float = 0.0
     joints: tuple[Joint, ...] = ()
+    elasticity: str = "corotated"
     loads: tuple[Load, ...] = ()
     initial: Initial = field(default_factory=Initial)
     solver: Solver = field(default_factory=Solver)
@@ -233,7 +253,8 @@ def _joint(t: Table) -> Joint:
             raise t.error("drive", t.get("drive"), "a drive needs a revolute or fixed joint")
         d = Table(f"{t.name}.drive", t.subtable("drive"))
         drive = Drive(angular_velocity=d.number("angular_velocity"),
-                      ramp_time_s=d.number("ramp_time", 0.0, low=0.0))
+                      ramp_time_s=d.number("ramp_time", 0.0, low=0.0),
+                      ramp=d.choice("ramp", DRIVE_RAMPS, "cosine"))
         d.finish()
         if axis is None:
             raise t.error("axis", None, "required with a drive: the axis it turns the group about")
@@ -324,6 +345,15 @@ def parse_scene(raw: Mapping[str, Any] | None) -> Scene | None:
                       coordinates=o.boolean("coordinates", False), field_times=field_times)
     o.finish()
 
+    elasticity = t.choice("elasticity", ELASTICITIES, "corotated")
+    if elasticity == "svk" and (alpha or beta):
+        raise t.error("elasticity", elasticity, "runs without [scene.damping] (the co-rotated "
+                      "Rayleigh damping is not combined with Saint Venant–Kirchhoff); remove "
+                      "damping or use elasticity = \"corotated\"")
+    if elasticity == "svk" and solver.jacobian != "rotated":
+        raise t.error("elasticity", elasticity, f'runs with [scene.solver] jacobian = '
+                      f'"rotated", not "{solver.jacobian}"')
+
     joints = tuple(_joint(jt) for jt in t.tables("joints"))
     loads = tuple(_load(lt, k) for k, lt in enumerate(t.tables("loads")))
     _unique("joints", [j.name for j in joints])
@@ -332,6 +362,6 @@ def parse_scene(raw: Mapping[str, Any] | None) -> Scene | None:
                   rho_inf=t.number("rho_inf", 0.8, low=0.0, high=1.0),
                   gravity=t.vector("gravity", (0.0, 0.0, 0.0)),
                   damping_alpha=alpha, damping_beta=beta, joints=joints, loads=loads,
-                  initial=initial, solver=solver, outputs=outputs)
+                  initial=initial, solver=solver, outputs=outputs, elasticity=elasticity)
     t.finish()
     return scene

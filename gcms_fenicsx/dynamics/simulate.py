@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import asdict, dataclass
+from functools import partial
 from pathlib import Path
 from typing import Callable
 
@@ -41,9 +42,10 @@ from gcms_fenicsx.dynamics.results import (MemorySink, ResultsWriter, RunInfo, S
                                            Trajectory)
 from gcms_fenicsx.dynamics.rotation import InvertedBodyError
 from gcms_fenicsx.dynamics.scene import Scene, SceneError
+from gcms_fenicsx.dynamics.svk import CoefficientsError, SVKLaw, svk_state
 from gcms_fenicsx.files.outputs import atomic_file, finite_json
 from gcms_fenicsx.runtime.progress import Progress, quiet
-from gcms_fenicsx.files.reduced_model import ReducedModel
+from gcms_fenicsx.files.reduced_model import ReducedModel, ReducedModelError
 
 __all__ = ["elastic_modes", "initial_coordinates", "modal_history", "simulate",
            "simulate_body", "simulate_to_file"]
@@ -77,11 +79,30 @@ def simulate_body(body: Body, scene: Scene, *, factorize: Factorize = dense_fact
     return traj, summary
 
 
+def elastic_law(model: ReducedModel, body: Body, scene: Scene) -> Elastic | None:
+    """The integrator's ``elastic`` callable for the scene's ``elasticity``: None for the
+    co-rotated law, the Saint Venant–Kirchhoff forces of the model's coefficients for "svk"
+    (SceneError if the model has none)."""
+    if scene.elasticity != "svk":
+        return None
+    if model.svk is None:
+        raise SceneError('[scene] elasticity = "svk" needs the Saint Venant–Kirchhoff '
+                         "coefficients in the reduced model, and this one has none (schema "
+                         f"{model.schema_version}); reduce the body again with this scene "
+                         "(gcms reduce or gcms run with the same study)")
+    try:
+        law = SVKLaw.of(model.svk, body)
+    except CoefficientsError as exc:
+        raise ReducedModelError(f"reduced model: {exc}") from exc
+    return partial(svk_state, body, law)
+
+
 def simulate(model: ReducedModel, scene: Scene,
              progress: Progress = quiet) -> tuple[Trajectory, dict]:
     """Run ``scene`` on an exported reduced model, keeping the results in memory."""
-    return simulate_body(body_from_reduced(model), scene, progress=progress,
-                         model_hash=model.input_hash)
+    body = body_from_reduced(model)
+    return simulate_body(body, scene, elastic=elastic_law(model, body, scene),
+                         progress=progress, model_hash=model.input_hash)
 
 
 def simulate_to_file(model: ReducedModel, scene: Scene, path: Path,
@@ -89,13 +110,14 @@ def simulate_to_file(model: ReducedModel, scene: Scene, path: Path,
     """Run ``scene`` on an exported reduced model, streaming the results into ``path``
     (a temporary file beside it, renamed when the run ends, complete or not); the summary."""
     body = body_from_reduced(model)
+    elastic = elastic_law(model, body, scene)
     with atomic_file(path) as tmp, h5py.File(tmp, "w") as f:
         def open_sink(plan: RecordPlan) -> Sink:
             return ResultsWriter(f, plan.layout, plan.block_rows,
                                  body.nodes_m if plan.snapshot_steps else None)
 
         summary, _ = _run(body, scene, open_sink, disk_capacity(tmp.parent),
-                          factorize=dense_factorization, elastic=None, progress=progress,
+                          factorize=dense_factorization, elastic=elastic, progress=progress,
                           model_hash=model.input_hash)
     return summary
 
@@ -159,6 +181,10 @@ def prepare_run(body: Body, scene: Scene, capacity: Capacity,
     for warning in scene.warnings():
         progress(f"warning: {warning}")
     q = initial_coordinates(body, scene.initial)
+    if elastic is not None and scene.initial.mode is not None:
+        warning = nonlinear_start(body, elastic, q, scene)
+        if warning:
+            progress(f"warning: {warning}")
     mass_solve = mass_factorization(body, factorize)
     constraints = build_constraints(body, scene.joints, q, mass_solve)
     if constraints.dropped:
@@ -187,6 +213,31 @@ def prepare_run(body: Body, scene: Scene, capacity: Capacity,
                     state=state, info=info,
                     kinetic_given_j=0.5 * float(v_rigid @ (body.mass @ v_rigid)),
                     kinetic_kept_j=0.5 * float(v @ (body.mass @ v)))
+
+
+#: An initial mode shape whose energy under another elastic law differs from the linear one
+#: by more than this fraction is reported (``nonlinear_start``).
+NONLINEAR_START = 0.1
+
+
+def nonlinear_start(body: Body, elastic: Elastic, q: np.ndarray, scene: Scene) -> str | None:
+    """A warning if the initial mode shape q (a linear eigenvector scaled to the scene's
+    amplitude) has an energy under ``elastic`` more than NONLINEAR_START away from its
+    co-rotated linear one: a geometrically exact law sees the fibres a linear mode shape turns
+    by θ stretched by ½θ², so the run starts with that energy in stiff axial motion. The
+    difference grows as the amplitude squared, which gives the amplitude that keeps it
+    within bounds."""
+    linear = elastic_state(body, q).energy
+    ratio = elastic(q).energy / linear if linear > 0 else 1.0
+    if abs(ratio - 1.0) <= NONLINEAR_START:
+        return None
+    amplitude = scene.initial.amplitude_m
+    within = amplitude * (NONLINEAR_START / abs(ratio - 1.0)) ** 0.5
+    return (f"[scene.initial] mode {scene.initial.mode} at amplitude {amplitude:g} m has "
+            f"{ratio:.3g} times its linear elastic energy under elasticity = "
+            f'"{scene.elasticity}" (a linear mode shape stretches the fibres it turns): the run '
+            "starts with that energy in stiff axial vibration, not in the mode; an amplitude of "
+            f"{within:.2g} m keeps the two within {NONLINEAR_START:.0%}")
 
 
 def _march(run: Prepared, recorder: Recorder, scene: Scene, progress: Progress) -> Stepped:
@@ -236,6 +287,7 @@ def _summary(body: Body, scene: Scene, run: Prepared, stepped: Stepped, extremes
         "newton_iterations_mean": stepped.newton_iterations / done if done else None,
         "newton_iterations_max": extremes.iterations,
         "jacobian": scene.solver.jacobian,
+        "elasticity": scene.elasticity,
         "energy_drift_rel": extremes.energy_drift,
         "linear_momentum_change": extremes.momentum_change,
         "initial_kinetic_energy_j": run.kinetic_kept_j,

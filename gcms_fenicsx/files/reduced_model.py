@@ -13,7 +13,7 @@ Coordinates: q is Q read row by row, Q holding one 3-vector per field (docs/desi
 is at x_i = Σ_f F[i, f] Q[f, :] and a node group's mean position is Σ_i w_i x_i; both are
 linear in q.
 
-File layout (schema 2): root attributes ``schema_version`` (int), ``input_hash`` (str) and
+File layout (schemas 2 and 3): root attributes ``schema_version`` (int), ``input_hash`` (str) and
 ``units``, ``field_names``, ``selection``, ``tolerances``, ``material``, ``mesh`` (JSON
 strings); datasets ``/mass``, ``/stiffness``, ``/gravity``, ``/fields``, ``/nodes_m``,
 ``/frequencies_hz``, ``/reduced_frequencies_hz``; and ``/groups/<name>/nodes`` (int64),
@@ -21,6 +21,13 @@ strings); datasets ``/mass``, ``/stiffness``, ``/gravity``, ``/fields``, ``/node
 contents and the root the SHA-256 of its attributes (``versioned.seal``); the reader
 verifies them, so a matrix changed on disk is refused even when it still looks valid.
 Schema 1 (before checksums) is still read; :attr:`ReducedModel.checksummed` tells.
+
+Schema 3 adds the constant coefficients of the geometrically exact Saint Venant–Kirchhoff
+energy (docs/design.md §5b, ``dynamics.svk``) for ``[scene] elasticity = "svk"``:
+``/svk/quadratic_upper`` (A's upper triangle, row by row), ``/svk/linear`` (b) and the
+root attributes ``svk_constant`` (c) and ``svk_fields_sha256`` (``files.svk_data``). A model
+without them is written as schema 2, which readers of schema 2 still read; one with them is
+schema 3, which they refuse as newer, and a schema-3 file without them is refused.
 """
 from __future__ import annotations
 
@@ -33,11 +40,16 @@ import h5py
 import numpy as np
 
 from gcms_fenicsx.files.outputs import atomic_file, json_text
+from gcms_fenicsx.files.svk_data import (SVK_CONSTANT, SVK_DATASETS, SVK_FIELDS,
+                                         SVKCoefficients, check_svk, from_upper, write_svk)
 from gcms_fenicsx.files.versioned import open_versioned, seal
 
-SCHEMA_VERSION: int = 2
+SCHEMA_VERSION: int = 3
 #: The first schema whose files carry content checksums.
 CHECKSUMS_SINCE: int = 2
+#: The first schema with the Saint Venant–Kirchhoff coefficients; a model without them is
+#: written as the schema before.
+SVK_SINCE: int = 3
 
 _ARRAYS = ("mass", "stiffness", "gravity", "fields", "nodes_m", "frequencies_hz",
            "reduced_frequencies_hz")
@@ -78,7 +90,8 @@ class ReducedModel:
     gravity vector g [m/s²] (the force is ``gravity @ g``). ``fields`` F (N, fields) holds the
     kept scalar fields at every node and ``nodes_m`` (N, 3) the undeformed node coordinates.
     ``frequencies_hz`` are the full model's elastic frequencies, ``reduced_frequencies_hz``
-    those of (Kr, Mr). ``selection``, ``tolerances``, ``material``, ``mesh`` and ``units``
+    those of (Kr, Mr); ``svk`` the Saint Venant–Kirchhoff coefficients of the fields, when
+    the reduction was asked for them. ``selection``, ``tolerances``, ``material``, ``mesh`` and ``units``
     are JSON-able dicts; ``input_hash`` is the sha256 hex digest of every input. The
     provenance (``material``, ``mesh``, ``input_hash``) is what a file records; a model
     built in memory (a workflow's) may leave it empty.
@@ -100,6 +113,7 @@ class ReducedModel:
     input_hash: str = ""
     units: dict = field(default_factory=_default_units)
     schema_version: int = SCHEMA_VERSION
+    svk: SVKCoefficients | None = None
 
     @property
     def dofs(self) -> int:
@@ -152,6 +166,8 @@ def validate_model(model: ReducedModel, where: str = "reduced model") -> None:
     _check_attributes(model, fail)
     _check_arrays(model, fail)
     _check_matrices(model, fail)
+    if model.svk is not None:
+        check_svk(model.svk, model.fields, fail)
     for name, g in model.groups.items():
         _check_group(name, g, model.fields.shape[0], fail)
 
@@ -266,13 +282,15 @@ def write_reduced(path: str | Path, model: ReducedModel) -> None:
     validate_model(model)
     attributes = _json_attributes(model)
     with atomic_file(path) as tmp, h5py.File(tmp, "w") as f:
-        f.attrs["schema_version"] = SCHEMA_VERSION
+        f.attrs["schema_version"] = schema_for(model)
         f.attrs["input_hash"] = model.input_hash
         for name, text in attributes.items():
             f.attrs[name] = text
         for name in _ARRAYS:
             f.create_dataset(name, data=np.asarray(getattr(model, name), dtype=np.float64))
         write_groups(f, model.groups)
+        if model.svk is not None:
+            write_svk(f, model.svk)
         seal(f)
 
 
@@ -282,6 +300,27 @@ def write_groups(f: h5py.File, groups: dict[str, NodeGroup]) -> None:
     for name, g in groups.items():
         folder.create_dataset(f"{name}/nodes", data=g.nodes.astype(np.int64))
         folder.create_dataset(f"{name}/weights", data=g.weights.astype(np.float64))
+
+
+def schema_for(model: ReducedModel) -> int:
+    """The schema a file of ``model`` is written with: SVK_SINCE with the SVK coefficients,
+    the one before without them (which readers of that schema still read)."""
+    return SVK_SINCE - 1 if model.svk is None else SCHEMA_VERSION
+
+
+def _read_svk(f: h5py.File, where: str) -> SVKCoefficients:
+    """The coefficients of a schema-3 file that has them; ReducedModelError if incomplete."""
+    def fail(message: str) -> NoReturn:
+        raise ReducedModelError(f"{where}: {message}")
+
+    missing = [name for name in SVK_DATASETS if name not in f]
+    missing += [f"attribute {name}" for name in (SVK_CONSTANT, SVK_FIELDS)
+                if name not in f.attrs]
+    if missing:
+        fail("the SVK coefficients (which schema 3 holds) are incomplete: missing "
+             + ", ".join(missing))
+    upper, linear = (_dataset(f, name, float, where) for name in SVK_DATASETS)
+    return from_upper(upper, linear, f.attrs[SVK_CONSTANT], f.attrs[SVK_FIELDS], fail)
 
 
 def read_reduced(path: str | Path) -> ReducedModel:
@@ -334,8 +373,9 @@ def _read_open(f: h5py.File, version: int, where: str) -> ReducedModel:
             fail("missing dataset " + ", ".join(absent))
         groups[name] = NodeGroup(nodes=_dataset(g, "nodes", np.int64, where),
                                  weights=_dataset(g, "weights", float, where))
+    svk = _read_svk(f, where) if version >= SVK_SINCE else None
     return ReducedModel(**arrays, field_names=tuple(field_names), groups=groups,
-                        input_hash=input_hash, schema_version=version, **attrs)
+                        input_hash=input_hash, schema_version=version, svk=svk, **attrs)
 
 
 def _dataset(parent: h5py.Group, name: str, dtype: type, where: str) -> np.ndarray:

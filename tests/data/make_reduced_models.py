@@ -19,6 +19,7 @@ committed one.
 | file | study | fields | coordinates | nodes | size |
 |---|---|---|---|---|---|
 | ``beam6.h5`` | ``beams.beam_study(6)`` | 22 | 66 | 2447 | 0.42 MB (0.58 MB as written) |
+| ``beam6_svk.h5`` | ``beams.beam_svk_study(6)`` (with the SVK coefficients, schema 3) | 22 | 66 | 2447 | 0.66 MB (0.84 MB as written) |
 
 The thirty-mode beam of the cantilever statics test (282 coordinates) is not committed: 3.2
 MB as written, 2.3 MB compacted (Kr and the node fields are dense doubles and do not
@@ -29,7 +30,8 @@ reduces its beam there.
 Regenerate (and commit the result) when ``tests/test_standalone_dynamics.py`` says a file
 is stale, i.e. when
 
-- the schema of reduced.h5 changes (``files.reduced_model.SCHEMA_VERSION``),
+- the schema of reduced.h5 changes (``files.reduced_model.SCHEMA_VERSION``, or the SVK
+  coefficients' layout, ``files.svk_data``),
 - the package version changes (the input hash includes it),
 - the test beam changes (``tests/beams.py``), or
 - ``gcms reduce`` writes a different model for the same study (meshing, eigen-solve, mode
@@ -54,11 +56,11 @@ HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[1]
 sys.path.insert(0, str(HERE.parent))  # tests/: beams
 
-from beams import beam_study  # noqa: E402
+from beams import beam_study, beam_svk_study  # noqa: E402
 from gcms_fenicsx.files.reduced_model import read_reduced  # noqa: E402
 
 #: Committed file name -> study text.
-MODELS = {"beam6.h5": beam_study(6)}
+MODELS = {"beam6.h5": beam_study(6), "beam6_svk.h5": beam_svk_study(6)}
 
 
 def reduce(study: str, folder: Path) -> Path:

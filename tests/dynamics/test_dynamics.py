@@ -485,14 +485,16 @@ def test_harmonic_load_work_closes_the_energy_balance(beam):
     assert 1.6 < math.log2(errors[0] / errors[1]) < 2.4, errors
 
 
-def test_drive_angle_is_smooth_and_consistent():
-    """Drive.angle, the reference of the driven-joint test: its θ̇ and θ̈ are the derivatives of
-    its θ and θ̇ (central differences, step 1e-6, to 1e-6, away from the jerk's jump at T),
-    θ̇ reaches Ω at t = T with θ̈ = 0 there (no jump in the constraint forces), and
-    θ = Ω (t − T/2) after the ramp."""
+@pytest.mark.parametrize("ramp", ["cosine", "cycloidal"])
+def test_drive_angle_is_smooth_and_consistent(ramp):
+    """Drive.angle, the reference of the driven-joint test, for both ramps: its θ̇ and θ̈ are
+    the derivatives of its θ and θ̇ (central differences, step 1e-6, to 1e-6, away from the
+    cosine ramp's jerk jump at T), θ̇ reaches Ω at t = T with θ̈ = 0 there (no jump in the
+    constraint forces), and θ = Ω (t − T/2) after the ramp."""
     sc = scene(end_time=1.0, time_step=0.1,
                joints=[{"type": "revolute", "group": "g", "axis": [0, 0, 1],
-                        "drive": {"angular_velocity": 7.0, "ramp_time": 0.3}}])
+                        "drive": {"angular_velocity": 7.0, "ramp_time": 0.3, "ramp": ramp}}])
+    assert sc.joints[0].drive.ramp == ramp
     drive = sc.joints[0].drive
     dt = 1e-6
     for t in np.linspace(0.005, 0.595, 60):

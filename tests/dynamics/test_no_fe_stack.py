@@ -1,6 +1,6 @@
 """The process ``tests/dynamics`` runs in, and the commands its tests start, cannot import the
 finite-element stack (``no_fe_stack/sitecustomize.py``), and the committed model they read
-is current."""
+are current."""
 from __future__ import annotations
 
 import importlib
@@ -11,9 +11,9 @@ import tomllib
 
 import pytest
 
-from beams import BEAM6, beam_study
-from gcms_fenicsx.config.study import REDUCED_MODEL_TABLES, parse_config
-from gcms_fenicsx.files.reduced_model import SCHEMA_VERSION, read_reduced
+from beams import BEAM6, BEAM6_SVK, beam_study, beam_svk_study
+from gcms_fenicsx.config.study import parse_config
+from gcms_fenicsx.files.reduced_model import read_reduced, schema_for
 from simulate_runs import FE_STACK, REPO
 
 #: What to do about a failure here.
@@ -38,12 +38,16 @@ def test_the_finite_element_stack_cannot_be_imported():
     assert child.returncode == 1 and "scipy is not installed here" in child.stderr, child.stderr
 
 
-def test_the_committed_beam_was_made_from_the_current_study_and_schema():
-    """tests/data/beam6.h5 is of the current schema and its input hash is the one of
-    ``beam_study(6)`` with this package version (what ``gcms reduce`` would record); the
-    main suite also compares it with a fresh ``gcms reduce``."""
-    model = read_reduced(BEAM6)
-    config = parse_config(tomllib.loads(beam_study(6)))
-    assert model.schema_version == SCHEMA_VERSION, REGENERATE
-    assert model.input_hash == config.digest(*REDUCED_MODEL_TABLES), REGENERATE
+@pytest.mark.parametrize("path, study", [(BEAM6, beam_study(6)),
+                                         (BEAM6_SVK, beam_svk_study(6))])
+def test_the_committed_beams_were_made_from_the_current_study_and_schema(path, study):
+    """tests/data/beam6.h5 and beam6_svk.h5 are of the schema their contents are written with
+    (2 without, 3 with the SVK coefficients) and their input hashes are those of their
+    studies with this package version (what ``gcms reduce`` would record); the main suite
+    also compares beam6.h5 with a fresh ``gcms reduce``."""
+    model = read_reduced(path)
+    config = parse_config(tomllib.loads(study))
+    assert model.schema_version == schema_for(model), REGENERATE
+    assert (model.svk is not None) == config.needs_svk, REGENERATE
+    assert model.input_hash == config.reduced_key(), REGENERATE
 

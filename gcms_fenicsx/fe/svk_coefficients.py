@@ -1,0 +1,152 @@
+"""The constant coefficients of the reduced Saint Venant–Kirchhoff energy, from the mesh's
+quadrature points (docs/design.md §5b; the energy and its use: ``dynamics.svk``).
+
+At a quadrature point with weight w (the rule's weight times |det J|) and field gradients
+D = ∇F (nf × 3), C_ij = r_ijᵀ p with r_ij = svec(sym(D_i D_jᵀ)) and p = svec(Q Qᵀ), so
+
+    W = λ/8 (tr C − 3)² + μ/4 |C − I|²
+      = λ/8 (tᵀp)² + μ/4 Σ_{i≤j} ω_ij (r_ijᵀ p)² − (3λ/4 + μ/2) tᵀp + 9λ/8 + 3μ/4,
+
+with t = r_11 + r_22 + r_33 and ω_ij = 1 (i = j), 2 (i < j). Summed over the points:
+
+    A = Σ w (λ/4 t tᵀ + μ/2 Σ ω_ij r_ij r_ijᵀ),   b = −(3λ/4 + μ/2) Σ w t,
+    c = (9λ/8 + 3μ/4) Σ w,
+
+a Gram matrix XᵀX of seven weighted rows per point, accumulated in blocks of points with
+one matrix product each. The quadrature is exact for the energy density of fields of the
+mesh's order on straight cells (degree 4 (p − 1)), the rule of the full-order reference's
+SVK forms for P2. Each rank sums its owned cells and rank 0 the ranks, so one and two ranks
+give the same coefficients to round-off.
+"""
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import basix
+import numpy as np
+import ufl
+from dolfinx import fem
+from mpi4py import MPI
+
+from gcms_fenicsx.config.material import Material
+from gcms_fenicsx.config.table import ConfigError
+from gcms_fenicsx.dynamics.svk import Packing, packed_size
+from gcms_fenicsx.files.svk_data import SVKCoefficients
+from gcms_fenicsx.files.versioned import dataset_digest
+from gcms_fenicsx.fe.node_order import input_node_indices
+from gcms_fenicsx.runtime.machine import available_memory_bytes
+from gcms_fenicsx.runtime.progress import Progress, quiet
+
+#: Quadrature points per block of the Gram product: 7 rows each, so a block of X holds
+#: 7 · 512 · s doubles (23 MB at nf = 34 fields, 60 MB at 64).
+POINTS_PER_BLOCK = 512
+#: Above this many operations (about 10 s on one core) the sums report their progress.
+REPORTED_OPERATIONS = 1e11
+#: Copies of A (s × s doubles) alive at once on rank 0: the sums, the ranks' reduction, the
+#: symmetrised result and the upper triangle written to reduced.h5 (with a margin).
+COEFFICIENT_COPIES = 4
+#: The components (i, j), i ≤ j, of C and their weights ω_ij in |C − I|².
+COMPONENTS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+OFF_DIAGONAL_WEIGHT = (1.0, 1.0, 1.0, 2.0, 2.0, 2.0)
+
+
+def quadrature_degree(mesh_order: int) -> int:
+    """4 (p − 1): exact for W of degree-p fields on straight cells (at least 1)."""
+    return max(4 * (mesh_order - 1), 1)
+
+
+def field_gradients(mesh: Any, fields: np.ndarray | None, comm: Any
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """(D, w): the gradients of every field at every quadrature point of this rank's owned
+    cells, (points, nf, 3), and the points' weights w = rule weight · |det J|.
+
+    ``fields`` (N × nf, the mesh file's node order) on rank 0, None elsewhere; collective."""
+    order = mesh.geometry.cmap.degree
+    Vs = fem.FunctionSpace(mesh, ("Lagrange", order))
+    index = input_node_indices(Vs)
+    fields = comm.bcast(fields, root=0)
+    points, rule = basix.make_quadrature(basix.CellType.tetrahedron, quadrature_degree(order))
+    cells = np.arange(mesh.topology.index_map(mesh.topology.dim).size_local, dtype=np.int32)
+    u = fem.Function(Vs)
+    gradient = fem.Expression(ufl.grad(u), points)
+    detJ = fem.Expression(abs(ufl.JacobianDeterminant(mesh)), points)
+    weights = (detJ.eval(cells).reshape(len(cells), len(points)) * rule).ravel()
+    nf, owned = fields.shape[1], len(index)
+    D = np.empty((len(cells) * len(points), nf, 3))
+    for f in range(nf):
+        u.x.array[:owned] = fields[index, f]
+        u.x.scatter_forward()
+        D[:, f, :] = gradient.eval(cells).reshape(-1, 3)
+    return D, weights
+
+
+def coefficient_sums(D: np.ndarray, weights: np.ndarray, material: Material,
+                     progress: Progress = quiet) -> tuple[np.ndarray, np.ndarray, float]:
+    """(A, b, c) of the module docstring summed over the given points (D: points × nf × 3);
+    a progress line at every tenth of the points when they are many."""
+    nf = D.shape[1]
+    packing = Packing(nf)
+    s = len(packing.rows)
+    mu, lmbda = material.lame
+    A, t_sum = np.zeros((s, s)), np.zeros(s)
+    row_weights = np.sqrt(np.array([lmbda / 4.0, *(mu / 2.0 * w for w in OFF_DIAGONAL_WEIGHT)]))
+    blocks = range(0, len(D), POINTS_PER_BLOCK)
+    report = set(blocks[len(blocks) * k // 10] for k in range(1, 10)) \
+        if 14.0 * len(D) * s * s > REPORTED_OPERATIONS else set()
+    for start in blocks:
+        if start in report:
+            progress(f"  SVK coefficients: {100 * start // len(D)} % of the quadrature points")
+        Dk, wk = D[start:start + POINTS_PER_BLOCK], weights[start:start + POINTS_PER_BLOCK]
+        r = np.stack([packing.svec(Dk[:, :, i, None] * Dk[:, None, :, j])
+                      for i, j in COMPONENTS], axis=1)                   # (k, 6, s)
+        t = r[:, 0] + r[:, 1] + r[:, 2]
+        t_sum += wk.dot(t)
+        X = np.concatenate((t[:, None], r), axis=1) * (np.sqrt(wk)[:, None] * row_weights)[:, :, None]
+        X = X.reshape(-1, s)
+        A += X.T.dot(X)
+    volume = float(weights.sum())
+    return A, -(0.75 * lmbda + 0.5 * mu) * t_sum, (1.125 * lmbda + 0.75 * mu) * volume
+
+
+def check_memory(field_count: int, available: float | None = None) -> None:
+    """ConfigError on ``[scene] elasticity`` if the coefficients of ``field_count`` fields
+    (COEFFICIENT_COPIES of s × s doubles) need more memory than this machine has. Checked
+    before the mesh is made for the most fields the modes can give (``stage_files``), and
+    again for the fields kept."""
+    need = COEFFICIENT_COPIES * 8.0 * packed_size(field_count) ** 2
+    limit = available_memory_bytes() if available is None else available
+    if need > limit:
+        raise ConfigError("[scene] elasticity", "svk",
+                          f"its coefficients for {field_count} fields need "
+                          f"{need / 2 ** 30:.3g} GiB (s² doubles, s = nf (nf + 1) / 2 = "
+                          f"{packed_size(field_count)}), more than the {limit / 2 ** 30:.3g} "
+                          "GiB this machine has available; ask fewer [modes] count or "
+                          'elasticity = "corotated"')
+
+
+def svk_coefficients(mesh: Any, fields: np.ndarray | None, material: Material,
+                     progress: Progress = quiet) -> tuple[SVKCoefficients | None, dict]:
+    """The coefficients of the fields ``fields`` (N × nf in the mesh file's node order, on
+    rank 0) on rank 0 (None on the others), and a report: size, points, wall time.
+    Collective."""
+    comm = mesh.comm
+    t0 = time.perf_counter()
+    nf = comm.bcast(None if fields is None else fields.shape[1], root=0)
+    check_memory(nf)
+    progress(f"Saint Venant–Kirchhoff coefficients of {nf} fields "
+             f"({packed_size(nf) ** 2 * 8 / 1e6:.0f} MB)")
+    D, weights = field_gradients(mesh, fields, comm)
+    A, b, c = coefficient_sums(D, weights, material, progress)
+    points = comm.reduce(len(weights), op=MPI.SUM, root=0)
+    A = comm.reduce(A, op=MPI.SUM, root=0)
+    b = comm.reduce(b, op=MPI.SUM, root=0)
+    c = comm.reduce(c, op=MPI.SUM, root=0)
+    if comm.rank != 0:
+        return None, {}
+    coefficients = SVKCoefficients(quadratic=0.5 * (A + A.T), linear=b, constant=float(c),
+                                   fields_digest=dataset_digest(fields))
+    return coefficients, {"fields": nf, "packed_size": len(b), "quadrature_points": points,
+                          "bytes": coefficients.nbytes,
+                          "stored_bytes": coefficients.stored_bytes,
+                          "seconds": time.perf_counter() - t0}
