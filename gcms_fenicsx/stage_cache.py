@@ -255,12 +255,10 @@ def cached_reduced(cfg: StudyConfig, out: Path, progress: Progress) -> ReducedMo
                  f"{model.schema_version}, an older gcms-fenicsx); rebuilding it")
         return None
     if model.input_hash != cfg.reduced_key():
-        progress(f"reduced model: {path} was made from other inputs; rebuilding it")
-        return None
-    if cfg.needs_svk != (model.svk is not None):
-        progress(f"reduced model: {path} {'lacks' if cfg.needs_svk else 'has'} the SVK "
-                 "coefficients the scene's elasticity "
-                 f"{'needs' if cfg.needs_svk else 'does not use'}; rebuilding it")
+        other_law = model.input_hash == cfg.reduced_key(svk=not cfg.needs_svk)
+        why = (f"was made {'without' if cfg.needs_svk else 'with'} the SVK coefficients "
+               "([scene] elasticity changed)" if other_law else "was made from other inputs")
+        progress(f"reduced model: {path} {why}; rebuilding it")
         return None
     progress(f"reduced model: reusing {path} ({model.dofs} coordinates; inputs unchanged)")
     return model

@@ -162,7 +162,9 @@ def _modes(cfg: StudyConfig, folder: Path, progress: Progress, comm: Any,
     _check_memory(cfg, estimate.dofs, estimate.nodes, cfg.modes.count or 1)
     if cfg.needs_svk and cfg.modes.count is not None:   # the most fields the modes can give
         from gcms_fenicsx.fe.svk_coefficients import check_memory
-        check_memory(4 + 3 * (cfg.modes.count + len(cfg.modes.attachment or ())))
+        from gcms_fenicsx.reduction.modal_basis import field_names
+        check_memory(len(field_names(cfg.modes.count, len(cfg.modes.attachment or ()))),
+                     comm=comm)
     product, mesh_doc = _mesh(cfg, folder, progress, comm, plan, stages)
     t0 = time.perf_counter()
     body = pipeline.body_mesh(product, comm)

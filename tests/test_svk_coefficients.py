@@ -1,5 +1,5 @@
 """The Saint Venant–Kirchhoff coefficients of ``gcms reduce`` (``fe.svk_coefficients``,
-docs/design.md §5b): the reduced energy is the full finite-element SVK energy of the same
+docs/design.md §7.2): the reduced energy is the full finite-element SVK energy of the same
 displacement (an independent assembly by dolfinx), two ranks give the serial coefficients,
 and reduced.h5 carries them under schema 3, cached with the elastic law in its key.
 
@@ -109,6 +109,7 @@ def test_reduced_file_schema_report_and_cache(reduced, tmp_path):
     other = gcms("reduce", str(corotated), "--out", str(folder))
     assert other.returncode == 0, other.stderr
     assert "modes: reusing" in other.stderr and "Saint Venant" not in other.stderr
+    assert "was made with the SVK coefficients ([scene] elasticity changed)" in other.stderr
     plain = rm.read_reduced(folder / "reduced.h5")
     assert plain.schema_version == 2 and plain.svk is None
     assert "svk_coefficients" not in json.loads((folder / "selection.json").read_text())
@@ -139,3 +140,25 @@ def test_coefficients_too_large_for_the_memory_are_refused_before_any_work():
                        r'for 154 fields need 4.25 GiB .*s = nf \(nf \+ 1\) / 2 = 11935.*fewer '
                        r'\[modes\] count'):
         check_memory(154, available=4e9)
+
+
+@pytest.mark.parametrize("nu", [0.3, -0.5])
+def test_coefficient_sums_are_the_pointwise_energy_also_for_negative_poisson_ratio(nu):
+    """For random gradients D at 1000 points and a random P = Q Qᵀ, ½ pᵀAp + bᵀp + c equals
+    Σ w (λ/2 (tr E)² + μ E : E) with E = ½ (Dᵀ P D − I) evaluated point by point, to 1e-12
+    relative; also for ν < 0, where λ < 0 (a square root of λ would give NaN)."""
+    from gcms_fenicsx.dynamics.svk import packing
+    from gcms_fenicsx.fe.svk_coefficients import coefficient_sums
+    rng = np.random.default_rng(5)
+    nf = 7
+    D, weights = rng.normal(size=(1000, nf, 3)), rng.uniform(0.1, 1.0, size=1000)
+    material = Material(E=2.0e9, nu=nu, rho=1000.0)
+    A, b, c = coefficient_sums(D, weights, material)
+    assert np.all(np.isfinite(A))
+    Q = rng.normal(size=(nf, 3))
+    P = Q @ Q.T
+    p = packing(nf).svec(P)
+    mu, lmbda = material.lame
+    E = 0.5 * (np.einsum("wai,ab,wbj->wij", D, P, D) - np.eye(3))
+    W = 0.5 * lmbda * np.trace(E, axis1=1, axis2=2) ** 2 + mu * np.einsum("wij,wij->w", E, E)
+    assert 0.5 * p @ A @ p + b @ p + c == pytest.approx(weights @ W, rel=1e-12)

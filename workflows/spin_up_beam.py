@@ -41,6 +41,7 @@ import math
 import sys
 import tempfile
 import time
+from dataclasses import replace
 from functools import partial
 from pathlib import Path
 
@@ -135,8 +136,9 @@ def main() -> None:
     tip0 = full.groups["end_xL"].center_m
 
     def run(body, **kwargs) -> dict:
+        law = "svk" if "elastic" in kwargs else "corotated"
         t0 = time.perf_counter()
-        traj, summary = simulate_body(body, scene, **kwargs)
+        traj, summary = simulate_body(body, replace(scene, elasticity=law), **kwargs)
         wall = time.perf_counter() - t0
         u, v = tip_in_hub_frame(traj, drive, tip0)
         return {"time": traj.time, "u": u, "v": v, "wall_s": wall, "complete": summary["complete"],

@@ -64,11 +64,13 @@ class StudyConfig:
         reduced model (``[scene] elasticity = "svk"``)."""
         return self.scene is not None and self.scene.elasticity == "svk"
 
-    def reduced_key(self) -> str:
+    def reduced_key(self, svk: bool | None = None) -> str:
         """The key of a cached reduced model: its tables' digest, and the elastic law when it
-        carries the SVK coefficients (a co-rotated study's key is the digest alone)."""
+        carries the SVK coefficients (a co-rotated study's key is the digest alone). ``svk``:
+        the key of the model with (True) or without (False) them, instead of what the scene
+        needs."""
         digest = self.digest(*REDUCED_MODEL_TABLES)
-        if not self.needs_svk:
+        if not (self.needs_svk if svk is None else svk):
             return digest
         return hashlib.sha256(json.dumps([digest, "svk"]).encode()).hexdigest()
 

@@ -33,9 +33,10 @@ converges linearly at a rate set by how far its tangent is from the linear one. 
 is too far (a slender body turned fast: the SVK tangent couples bending to the axial
 stiffness), a step that converges slowly switches to β' Mr + ∂²V/∂q² from the law's exact
 tangent (``kkt.TangentKKT``, for a dense body whose elastic states have ``tangent()``): a
-step whose correction shrinks by less than ``TANGENT_RATE``, or whose iterate leaves the
-states with a rotation, is redone from its predictor with that matrix; the next step tries
-the cheap one again. Co-rotated damping is not combined with another elastic law.
+step whose correction shrinks by less than ``TANGENT_RATE``, whose iterate leaves the
+states with a rotation, or which does not converge in ``max_iterations``, is redone from its
+predictor with that matrix (with ``max_iterations`` of its own; the step's iterations count
+both attempts); the next step tries the cheap one again. Co-rotated damping is not combined with another elastic law.
 """
 from __future__ import annotations
 
@@ -195,6 +196,8 @@ class GeneralizedAlpha:
                 break
             previous = delta
         else:
+            if self._can_switch(linear):
+                return self._step_with_tangent(s, iteration)
             raise self._no_convergence(t1, iteration, delta, r, g)
         return State(t1, Z, lam), StepInfo(es, dissipation, U, iteration, f_ext, C)
 

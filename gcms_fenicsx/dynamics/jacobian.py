@@ -12,7 +12,9 @@ run has learnt about the body (docs/design.md §6).
 In every mode, a correction that is not smaller than ``UPGRADE_RATE`` times the previous
 one is recomputed with the matrix re-linearised at the current iterate (R, and the rank-9
 term where the elastic model allows), and the rest of that step is full Newton: a step with
-a large, fast change of frame converges quadratically instead of slowly or not at all.
+a large, fast change of frame converges quadratically instead of slowly or not at all. An
+elastic law with an exact tangent of its own (``svk``) is handled by the integrator instead:
+its slow steps are redone with that tangent (``integrator.TANGENT_RATE``).
 """
 from __future__ import annotations
 

@@ -11,7 +11,7 @@ time_step = 1e-3               # s
 rho_inf = 0.8                  # spectral radius at infinite frequency, 0..1
 gravity = [0.0, 0.0, -9.81]    # m/s²
 elasticity = "corotated"       # or "svk": geometrically exact Saint Venant–Kirchhoff
-                               # (docs/design.md §5b; undamped, jacobian = "rotated")
+                               # (docs/design.md §7.2; undamped, jacobian = "rotated")
 damping = { alpha = 0.0, beta = 0.0 }   # co-rotated Rayleigh: α Mr + β Kr on deformation rates
                                         # (relative to the body frame: a jointed body whose
                                         # frame follows its bending is damped by β, hardly α)

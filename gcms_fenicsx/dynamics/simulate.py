@@ -69,7 +69,9 @@ def simulate_body(body: Body, scene: Scene, *, factorize: Factorize = dense_fact
                   model_hash: str = "") -> tuple[Trajectory, dict]:
     """Run ``scene`` on ``body``: the recorded trajectory (in memory) and the summary
     (``summary.json``). ``factorize`` and ``elastic`` as in
-    :class:`~gcms_fenicsx.dynamics.integrator.GeneralizedAlpha`."""
+    :class:`~gcms_fenicsx.dynamics.integrator.GeneralizedAlpha`; ``elastic`` is given exactly
+    when the scene's ``elasticity`` is not the co-rotated law (SceneError otherwise), so the
+    summary names the law that ran."""
     def open_sink(plan: RecordPlan) -> Sink:
         return MemorySink(plan.layout, plan.rows, body.nodes_m if plan.snapshot_steps else None)
 
@@ -156,6 +158,11 @@ def _run(body: Body, scene: Scene, open_sink: OpenSink, capacity: Capacity, *,
     """Set up, step, record into the sink ``open_sink`` gives: the summary and what the sink
     returns when closed."""
     scene.check_groups(body.groups)
+    if (elastic is None) != (scene.elasticity == "corotated"):
+        raise SceneError(f'[scene] elasticity = "{scene.elasticity}" '
+                         + ("needs its law's forces (simulate a reduced model that has its "
+                            "coefficients)" if elastic is None else
+                            "runs the co-rotated law, and another elastic law was given"))
     t_setup = time.perf_counter()
     run = prepare_run(body, scene, capacity, factorize, elastic, progress)
     sink = open_sink(run.plan)
@@ -225,19 +232,24 @@ def nonlinear_start(body: Body, elastic: Elastic, q: np.ndarray, scene: Scene) -
     amplitude) has an energy under ``elastic`` more than NONLINEAR_START away from its
     co-rotated linear one: a geometrically exact law sees the fibres a linear mode shape turns
     by θ stretched by ½θ², so the run starts with that energy in stiff axial motion. The
-    difference grows as the amplitude squared, which gives the amplitude that keeps it
-    within bounds."""
-    linear = elastic_state(body, q).energy
-    ratio = elastic(q).energy / linear if linear > 0 else 1.0
-    if abs(ratio - 1.0) <= NONLINEAR_START:
+    amplitude that keeps it within bounds is found by halving."""
+    def ratio(scale: float) -> float:
+        shape = body.q0 + scale * (q - body.q0)
+        linear = elastic_state(body, shape).energy
+        return elastic(shape).energy / linear if linear > 0 else 1.0
+
+    excess = ratio(1.0)
+    if abs(excess - 1.0) <= NONLINEAR_START:
         return None
+    scale = 1.0
+    while abs(ratio(scale) - 1.0) > NONLINEAR_START and scale > 1e-6:
+        scale /= 2.0                       # the excess grows with the amplitude: halve it
     amplitude = scene.initial.amplitude_m
-    within = amplitude * (NONLINEAR_START / abs(ratio - 1.0)) ** 0.5
     return (f"[scene.initial] mode {scene.initial.mode} at amplitude {amplitude:g} m has "
-            f"{ratio:.3g} times its linear elastic energy under elasticity = "
+            f"{excess:.3g} times its linear elastic energy under elasticity = "
             f'"{scene.elasticity}" (a linear mode shape stretches the fibres it turns): the run '
             "starts with that energy in stiff axial vibration, not in the mode; an amplitude of "
-            f"{within:.2g} m keeps the two within {NONLINEAR_START:.0%}")
+            f"{scale * amplitude:.2g} m keeps the two within {NONLINEAR_START:.0%}")
 
 
 def _march(run: Prepared, recorder: Recorder, scene: Scene, progress: Progress) -> Stepped:

@@ -1,5 +1,5 @@
 """The constant coefficients of the reduced Saint Venant–Kirchhoff energy, from the mesh's
-quadrature points (docs/design.md §5b; the energy and its use: ``dynamics.svk``).
+quadrature points (docs/design.md §7.2; the energy and its use: ``dynamics.svk``).
 
 At a quadrature point with weight w (the rule's weight times |det J|) and field gradients
 D = ∇F (nf × 3), C_ij = r_ijᵀ p with r_ij = svec(sym(D_i D_jᵀ)) and p = svec(Q Qᵀ), so
@@ -12,15 +12,16 @@ with t = r_11 + r_22 + r_33 and ω_ij = 1 (i = j), 2 (i < j). Summed over the po
     A = Σ w (λ/4 t tᵀ + μ/2 Σ ω_ij r_ij r_ijᵀ),   b = −(3λ/4 + μ/2) Σ w t,
     c = (9λ/8 + 3μ/4) Σ w,
 
-a Gram matrix XᵀX of seven weighted rows per point, accumulated in blocks of points with
-one matrix product each. The quadrature is exact for the energy density of fields of the
+two Gram matrices of weighted rows (one t and six r per point), accumulated in blocks of
+points. The quadrature is exact for the energy density of fields of the
 mesh's order on straight cells (degree 4 (p − 1)), the rule of the full-order reference's
-SVK forms for P2. Each rank sums its owned cells and rank 0 the ranks, so one and two ranks
-give the same coefficients to round-off.
+SVK forms for P2. Each rank sums its owned cells, a block of cells at a time, and rank 0 the
+ranks, so one and two ranks give the same coefficients to round-off.
 """
 from __future__ import annotations
 
 import time
+from collections.abc import Iterator
 from typing import Any
 
 import basix
@@ -41,8 +42,9 @@ from gcms_fenicsx.runtime.progress import Progress, quiet
 #: Quadrature points per block of the Gram product: 7 rows each, so a block of X holds
 #: 7 · 512 · s doubles (23 MB at nf = 34 fields, 60 MB at 64).
 POINTS_PER_BLOCK = 512
-#: Above this many operations (about 10 s on one core) the sums report their progress.
-REPORTED_OPERATIONS = 1e11
+#: Cells whose field gradients are evaluated at once: 14 points each at degree 4, so a block
+#: holds 14 · 1024 · nf · 3 doubles (16 MB at 47 fields) however large the mesh.
+CELLS_PER_BLOCK = 1024
 #: Copies of A (s × s doubles) alive at once on rank 0: the sums, the ranks' reduction, the
 #: symmetrised result and the upper triangle written to reduced.h5 (with a margin).
 COEFFICIENT_COPIES = 4
@@ -56,66 +58,75 @@ def quadrature_degree(mesh_order: int) -> int:
     return max(4 * (mesh_order - 1), 1)
 
 
-def field_gradients(mesh: Any, fields: np.ndarray | None, comm: Any
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """(D, w): the gradients of every field at every quadrature point of this rank's owned
-    cells, (points, nf, 3), and the points' weights w = rule weight · |det J|.
+def gradient_blocks(mesh: Any, fields: np.ndarray | None, comm: Any
+                    ) -> tuple[int, Iterator[tuple[np.ndarray, np.ndarray]]]:
+    """(number of blocks, blocks): for blocks of CELLS_PER_BLOCK of this rank's owned cells,
+    the gradients of every field at their quadrature points, (points, nf, 3), and the points'
+    weights w = rule weight · |det J|. The fields are the components of one function of a
+    blocked space (the same nodes as the scalar space), so each block is one evaluation.
 
     ``fields`` (N × nf, the mesh file's node order) on rank 0, None elsewhere; collective."""
     order = mesh.geometry.cmap.degree
     Vs = fem.FunctionSpace(mesh, ("Lagrange", order))
     index = input_node_indices(Vs)
     fields = comm.bcast(fields, root=0)
+    nf = fields.shape[1]
+    V = fem.VectorFunctionSpace(mesh, ("Lagrange", order), dim=nf)
+    u = fem.Function(V)
+    u.x.array[:len(index) * nf] = fields[index].ravel()
+    u.x.scatter_forward()
     points, rule = basix.make_quadrature(basix.CellType.tetrahedron, quadrature_degree(order))
-    cells = np.arange(mesh.topology.index_map(mesh.topology.dim).size_local, dtype=np.int32)
-    u = fem.Function(Vs)
     gradient = fem.Expression(ufl.grad(u), points)
     detJ = fem.Expression(abs(ufl.JacobianDeterminant(mesh)), points)
-    weights = (detJ.eval(cells).reshape(len(cells), len(points)) * rule).ravel()
-    nf, owned = fields.shape[1], len(index)
-    D = np.empty((len(cells) * len(points), nf, 3))
-    for f in range(nf):
-        u.x.array[:owned] = fields[index, f]
-        u.x.scatter_forward()
-        D[:, f, :] = gradient.eval(cells).reshape(-1, 3)
-    return D, weights
+    cells = np.arange(mesh.topology.index_map(mesh.topology.dim).size_local, dtype=np.int32)
+    starts = range(0, len(cells), CELLS_PER_BLOCK)
+
+    def blocks() -> Iterator[tuple[np.ndarray, np.ndarray]]:
+        for start in starts:
+            block = cells[start:start + CELLS_PER_BLOCK]
+            weights = (detJ.eval(block).reshape(len(block), len(points)) * rule).ravel()
+            yield gradient.eval(block).reshape(-1, nf, 3), weights
+
+    return len(starts), blocks()
 
 
-def coefficient_sums(D: np.ndarray, weights: np.ndarray, material: Material,
-                     progress: Progress = quiet) -> tuple[np.ndarray, np.ndarray, float]:
-    """(A, b, c) of the module docstring summed over the given points (D: points × nf × 3);
-    a progress line at every tenth of the points when they are many."""
+def coefficient_sums(D: np.ndarray, weights: np.ndarray, material: Material
+                     ) -> tuple[np.ndarray, np.ndarray, float]:
+    """(A, b, c) of the module docstring summed over the given points (D: points × nf × 3):
+    A = λ/4 Σ w t tᵀ + μ/2 Σ w ω r rᵀ from two Gram products per POINTS_PER_BLOCK points (λ
+    may be negative: ν < 0)."""
     nf = D.shape[1]
     packing = Packing(nf)
     s = len(packing.rows)
     mu, lmbda = material.lame
-    A, t_sum = np.zeros((s, s)), np.zeros(s)
-    row_weights = np.sqrt(np.array([lmbda / 4.0, *(mu / 2.0 * w for w in OFF_DIAGONAL_WEIGHT)]))
-    blocks = range(0, len(D), POINTS_PER_BLOCK)
-    report = set(blocks[len(blocks) * k // 10] for k in range(1, 10)) \
-        if 14.0 * len(D) * s * s > REPORTED_OPERATIONS else set()
-    for start in blocks:
-        if start in report:
-            progress(f"  SVK coefficients: {100 * start // len(D)} % of the quadrature points")
+    T, R, t_sum = np.zeros((s, s)), np.zeros((s, s)), np.zeros(s)
+    omega = np.sqrt(np.array(OFF_DIAGONAL_WEIGHT))
+    for start in range(0, len(D), POINTS_PER_BLOCK):
         Dk, wk = D[start:start + POINTS_PER_BLOCK], weights[start:start + POINTS_PER_BLOCK]
         r = np.stack([packing.svec(Dk[:, :, i, None] * Dk[:, None, :, j])
                       for i, j in COMPONENTS], axis=1)                   # (k, 6, s)
         t = r[:, 0] + r[:, 1] + r[:, 2]
         t_sum += wk.dot(t)
-        X = np.concatenate((t[:, None], r), axis=1) * (np.sqrt(wk)[:, None] * row_weights)[:, :, None]
-        X = X.reshape(-1, s)
-        A += X.T.dot(X)
+        root = np.sqrt(wk)[:, None]
+        Xt = t * root
+        Xr = (r * (root * omega)[:, :, None]).reshape(-1, s)
+        T += Xt.T.dot(Xt)
+        R += Xr.T.dot(Xr)
     volume = float(weights.sum())
-    return A, -(0.75 * lmbda + 0.5 * mu) * t_sum, (1.125 * lmbda + 0.75 * mu) * volume
+    return (0.25 * lmbda * T + 0.5 * mu * R, -(0.75 * lmbda + 0.5 * mu) * t_sum,
+            (1.125 * lmbda + 0.75 * mu) * volume)
 
 
-def check_memory(field_count: int, available: float | None = None) -> None:
+def check_memory(field_count: int, available: float | None = None, comm: Any = None) -> None:
     """ConfigError on ``[scene] elasticity`` if the coefficients of ``field_count`` fields
-    (COEFFICIENT_COPIES of s × s doubles) need more memory than this machine has. Checked
-    before the mesh is made for the most fields the modes can give (``stage_files``), and
-    again for the fields kept."""
+    (COEFFICIENT_COPIES of s × s doubles) need more memory than this machine has (with
+    ``comm``: the least any rank has, so every rank decides alike). Checked before the mesh
+    is made for the most fields the modes can give (``stage_files``), and again for the
+    fields kept."""
     need = COEFFICIENT_COPIES * 8.0 * packed_size(field_count) ** 2
     limit = available_memory_bytes() if available is None else available
+    if comm is not None:
+        limit = comm.allreduce(limit, op=MPI.MIN)
     if need > limit:
         raise ConfigError("[scene] elasticity", "svk",
                           f"its coefficients for {field_count} fields need "
@@ -133,12 +144,22 @@ def svk_coefficients(mesh: Any, fields: np.ndarray | None, material: Material,
     comm = mesh.comm
     t0 = time.perf_counter()
     nf = comm.bcast(None if fields is None else fields.shape[1], root=0)
-    check_memory(nf)
+    check_memory(nf, comm=comm)
     progress(f"Saint Venant–Kirchhoff coefficients of {nf} fields "
              f"({packed_size(nf) ** 2 * 8 / 1e6:.0f} MB)")
-    D, weights = field_gradients(mesh, fields, comm)
-    A, b, c = coefficient_sums(D, weights, material, progress)
-    points = comm.reduce(len(weights), op=MPI.SUM, root=0)
+    count, blocks = gradient_blocks(mesh, fields, comm)
+    s = packed_size(nf)
+    A, b, c, points = np.zeros((s, s)), np.zeros(s), 0.0, 0
+    report = {count * k // 10 for k in range(1, 10)} if count >= 10 else set()
+    for k, (D, weights) in enumerate(blocks):
+        if k in report:
+            progress(f"  SVK coefficients: {100 * k // count} % of the cells")
+        Ak, bk, ck = coefficient_sums(D, weights, material)
+        A += Ak
+        b += bk
+        c += ck
+        points += len(weights)
+    points = comm.reduce(points, op=MPI.SUM, root=0)
     A = comm.reduce(A, op=MPI.SUM, root=0)
     b = comm.reduce(b, op=MPI.SUM, root=0)
     c = comm.reduce(c, op=MPI.SUM, root=0)

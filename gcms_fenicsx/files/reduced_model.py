@@ -23,7 +23,7 @@ verifies them, so a matrix changed on disk is refused even when it still looks v
 Schema 1 (before checksums) is still read; :attr:`ReducedModel.checksummed` tells.
 
 Schema 3 adds the constant coefficients of the geometrically exact Saint Venant–Kirchhoff
-energy (docs/design.md §5b, ``dynamics.svk``) for ``[scene] elasticity = "svk"``:
+energy (docs/design.md §7.2, ``dynamics.svk``) for ``[scene] elasticity = "svk"``:
 ``/svk/quadratic_upper`` (A's upper triangle, row by row), ``/svk/linear`` (b) and the
 root attributes ``svk_constant`` (c) and ``svk_fields_sha256`` (``files.svk_data``). A model
 without them is written as schema 2, which readers of schema 2 still read; one with them is
