@@ -11,7 +11,8 @@ and a content checksum:
   ``max_frequency_hz`` serves that band;
 - the reduced model, ``reduced.h5``: key ``input_hash`` over REDUCED_MODEL_TABLES, and the
   elastic law where ``[scene] elasticity = "svk"`` adds its coefficients
-  (``StudyConfig.reduced_key``), which are computed on the modes' own mesh.
+  (``StudyConfig.reduced_key``), which are computed on the modes' own mesh; a model with
+  them also serves a co-rotated scene (the co-rotated law ignores them).
 
 Every command writes ``cache.json``, the SHA-256 of each cached file's bytes (mesh.msh,
 mesh.json, modes.h5, reduced.h5), and a listed file is hashed and compared before it is
@@ -254,10 +255,11 @@ def cached_reduced(cfg: StudyConfig, out: Path, progress: Progress) -> ReducedMo
         progress(f"reduced model: {path} has no content checksums (schema "
                  f"{model.schema_version}, an older gcms-fenicsx); rebuilding it")
         return None
-    if model.input_hash != cfg.reduced_key():
-        other_law = model.input_hash == cfg.reduced_key(svk=not cfg.needs_svk)
-        why = (f"was made {'without' if cfg.needs_svk else 'with'} the SVK coefficients "
-               "([scene] elasticity changed)" if other_law else "was made from other inputs")
+    superset = not cfg.needs_svk and model.input_hash == cfg.reduced_key(svk=True)
+    if model.input_hash != cfg.reduced_key() and not superset:
+        other_law = cfg.needs_svk and model.input_hash == cfg.reduced_key(svk=False)
+        why = ("was made without the SVK coefficients ([scene] elasticity changed)"
+               if other_law else "was made from other inputs")
         progress(f"reduced model: {path} {why}; rebuilding it")
         return None
     progress(f"reduced model: reusing {path} ({model.dofs} coordinates; inputs unchanged)")

@@ -86,9 +86,10 @@ def test_two_ranks_give_the_serial_coefficients(reduced, tmp_path):
 
 def test_reduced_file_schema_report_and_cache(reduced, tmp_path):
     """reduced.h5 with the coefficients is schema 3, which a schema-2 reader refuses as newer;
-    selection.json reports their size and time; a rerun reuses the file, and the same study
-    with the co-rotated law rebuilds only the reduction (modes reused) into a schema-2 file
-    without them (nothing computed that the scene does not need)."""
+    selection.json reports their size and time; a rerun reuses the file, and so does the same
+    study with the co-rotated law (the coefficients are a superset it ignores). A co-rotated
+    reduction in a fresh folder is schema 2 without them, and the SVK study then rebuilds only
+    the reduction (modes reused), saying that the elasticity changed."""
     folder, model = reduced
     assert model.schema_version == 3 and model.svk is not None
     nf = len(model.field_names)
@@ -106,13 +107,20 @@ def test_reduced_file_schema_report_and_cache(reduced, tmp_path):
     assert "reduced model: reused" in rerun.stdout
     corotated = tmp_path / "corotated.toml"
     corotated.write_text(config.read_text().replace('elasticity = "svk"', ""))
-    other = gcms("reduce", str(corotated), "--out", str(folder))
-    assert other.returncode == 0, other.stderr
-    assert "modes: reusing" in other.stderr and "Saint Venant" not in other.stderr
-    assert "was made with the SVK coefficients ([scene] elasticity changed)" in other.stderr
-    plain = rm.read_reduced(folder / "reduced.h5")
+    same = gcms("reduce", str(corotated), "--out", str(folder))
+    assert same.returncode == 0, same.stderr
+    assert "reduced model: reused" in same.stdout
+    fresh = tmp_path / "fresh"
+    plain_run = gcms("reduce", str(corotated), "--out", str(fresh))
+    assert plain_run.returncode == 0, plain_run.stderr
+    plain = rm.read_reduced(fresh / "reduced.h5")
     assert plain.schema_version == 2 and plain.svk is None
-    assert "svk_coefficients" not in json.loads((folder / "selection.json").read_text())
+    assert "svk_coefficients" not in json.loads((fresh / "selection.json").read_text())
+    again = gcms("reduce", str(config), "--out", str(fresh))
+    assert again.returncode == 0, again.stderr
+    assert "modes: reusing" in again.stderr and "Saint Venant" in again.stderr
+    assert "was made without the SVK coefficients ([scene] elasticity changed)" in again.stderr
+    assert rm.read_reduced(fresh / "reduced.h5").svk is not None
 
 
 @pytest.mark.parametrize("scene, message", [
