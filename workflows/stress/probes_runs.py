@@ -1,4 +1,5 @@
-"""Probe classes 5 and 7: long runs (2e4 steps of the flexible pendulum; the default
+"""Probe classes 5 and 7: long runs (2e4 steps of the flexible pendulum, with the co-rotated
+and with the Saint Venant–Kirchhoff law; the default
 crankshaft scene with its drive ×1, ×3, ×10 on one reduced model, and the fastest with a
 quarter of the step) and one against two MPI ranks (`gcms reduce`: frequencies, fields, Mr
 and Kr entries)."""
@@ -45,6 +46,11 @@ def long_runs(suite: Suite) -> None:
     run = gcms("run", flexible_pendulum(LONG_STEPS), suite.path("long_pendulum"))
     suite.probe("long", f"flexible pendulum, {LONG_STEPS} steps", run, read_long,
                 body="pendulum", drive_factor=None)
+    exact = flexible_pendulum(LONG_STEPS)
+    exact["scene"]["elasticity"] = "svk"
+    run = gcms("run", exact, suite.path("long_pendulum_svk"))
+    suite.probe("long", f"flexible pendulum, elasticity svk, {LONG_STEPS} steps", run,
+                read_long, body="pendulum", drive_factor=None)
     reduced = gcms("reduce", without_scene(default_study()), suite.path("long_crank_reduced"))
     suite.probe("long", "crankshaft, reduce", reduced, read_selection, body="crankshaft",
                 drive_factor=None)
