@@ -152,16 +152,20 @@ def test_coefficients_too_large_for_the_memory_are_refused_before_any_work():
 
 @pytest.mark.parametrize("nu", [0.3, -0.5])
 def test_coefficient_sums_are_the_pointwise_energy_also_for_negative_poisson_ratio(nu):
-    """For random gradients D at 1000 points and a random P = Q Qᵀ, ½ pᵀAp + bᵀp + c equals
+    """For random gradients D at 1000 points (added in two parts) and a random P = Q Qᵀ,
+    ½ pᵀAp + bᵀp + c equals
     Σ w (λ/2 (tr E)² + μ E : E) with E = ½ (Dᵀ P D − I) evaluated point by point, to 1e-12
     relative; also for ν < 0, where λ < 0 (a square root of λ would give NaN)."""
     from gcms_fenicsx.dynamics.svk import packing
-    from gcms_fenicsx.fe.svk_coefficients import coefficient_sums
+    from gcms_fenicsx.fe.svk_coefficients import GramSums
     rng = np.random.default_rng(5)
     nf = 7
     D, weights = rng.normal(size=(1000, nf, 3)), rng.uniform(0.1, 1.0, size=1000)
     material = Material(E=2.0e9, nu=nu, rho=1000.0)
-    A, b, c = coefficient_sums(D, weights, material)
+    sums = GramSums.zeros(nf)
+    sums.add(D[:600], weights[:600])      # two additions: the sums accumulate
+    sums.add(D[600:], weights[600:])
+    A, b, c = sums.coefficients(material)
     assert np.all(np.isfinite(A))
     Q = rng.normal(size=(nf, 3))
     P = Q @ Q.T

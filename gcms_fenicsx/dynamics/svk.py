@@ -32,14 +32,9 @@ import numpy as np
 
 from gcms_fenicsx.dynamics.body import Body
 from gcms_fenicsx.dynamics.rotation import polar
-from gcms_fenicsx.files.svk_data import SVKCoefficients
+from gcms_fenicsx.files.svk_data import SVKCoefficients, packed_size
 
 SQRT2 = math.sqrt(2.0)
-
-
-def packed_size(field_count: int) -> int:
-    """s = nf (nf + 1) / 2, the length of svec of a symmetric nf × nf matrix."""
-    return field_count * (field_count + 1) // 2
 
 
 @dataclass(frozen=True)
@@ -143,7 +138,8 @@ class SVKLaw:
                                     f"body's {nf} fields need nf (nf + 1) / 2 = "
                                     f"{packed_size(nf)}")
         Pi = np.asarray(body.projections.deformation)
-        P0 = _gram(Pi.dot(body.q0.reshape(-1, 3)))
+        Q0 = Pi.dot(body.q0.reshape(-1, 3))
+        P0 = Q0.dot(Q0.T)
         p0 = packing(nf).svec(P0)
         with np.errstate(all="ignore"):      # non-finite products fail the checks below
             Ap0 = A.dot(p0)
@@ -179,7 +175,7 @@ class SVKLaw:
         """∂V/∂q."""
         return self.state(q)[2]
 
-    def tangent(self, q: np.ndarray) -> np.ndarray:
+    def tangent(self, q: np.ndarray, stress: np.ndarray | None = None) -> np.ndarray:
         """∂²V/∂q² = Lᵀ A L + 2 S ⊗ I3 of (3) at Q̃; dense n × n. (The chain rule's Π₃ᵀ … Π₃,
         Π₃ = Π ⊗ I3, changes nothing: both terms annihilate translations, D k1 = 0 and
         S k1 = 0, measured 3e-17 relative.)
@@ -187,8 +183,9 @@ class SVKLaw:
         L = ∂p/∂q is sparse — column (f, l) holds row and column f of dP — so A L and
         Lᵀ (A L) are nf products with the nf columns of A that belong to field f
         (``Packing.index``, ``Packing.jacobian_weights``): 3 s nf² operations instead of the
-        3 s² nf of a dense L (25× fewer at nf = 47)."""
-        S, _, _ = self.state(q)
+        3 s² nf of a dense L (25× fewer at nf = 47). ``stress``: S at q when the caller has it
+        (``SVKState``), else computed."""
+        S = self.state(q)[0] if stress is None else stress
         Qc = self.centring.dot(q.reshape(-1, 3))
         pack = self.packing
         nf, index, W = len(Qc), pack.index, pack.jacobian_weights(Qc)
@@ -211,10 +208,11 @@ class SVKState(NamedTuple):
     rotation: np.ndarray
     law: SVKLaw
     q: np.ndarray
+    stress: np.ndarray        # S = smat(A δ)
 
     def tangent(self) -> np.ndarray:
-        """∂²V/∂q² at this state (3)."""
-        return self.law.tangent(self.q)
+        """∂²V/∂q² at this state (3), with its S."""
+        return self.law.tangent(self.q, self.stress)
 
     @property
     def local_gradient(self) -> np.ndarray:
@@ -224,11 +222,7 @@ class SVKState(NamedTuple):
 
 def svk_state(body: Body, law: SVKLaw, q: np.ndarray) -> SVKState:
     """V(q) and ∂V/∂q of (4) and (2), with the body's co-rotated frame for the Newton matrix."""
-    _, V, force = law.state(q)
+    S, V, force = law.state(q)
     return SVKState(force=force, energy=V,
-                    rotation=polar(q.reshape(-1, 3).T.dot(body.affine)).rotation, law=law, q=q)
-
-
-def _gram(Q: np.ndarray) -> np.ndarray:
-    """P = Q Qᵀ."""
-    return Q.dot(Q.T)
+                    rotation=polar(q.reshape(-1, 3).T.dot(body.affine)).rotation, law=law, q=q,
+                    stress=S)

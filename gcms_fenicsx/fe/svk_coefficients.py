@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Iterator
+from dataclasses import dataclass
 from typing import Any
 
 import basix
@@ -32,21 +33,22 @@ from mpi4py import MPI
 
 from gcms_fenicsx.config.material import Material
 from gcms_fenicsx.config.table import ConfigError
-from gcms_fenicsx.dynamics.svk import Packing, packed_size
-from gcms_fenicsx.files.svk_data import SVKCoefficients
+from gcms_fenicsx.dynamics.svk import packing
+from gcms_fenicsx.files.svk_data import SVKCoefficients, packed_size
 from gcms_fenicsx.files.versioned import dataset_digest
 from gcms_fenicsx.fe.node_order import input_node_indices
 from gcms_fenicsx.runtime.machine import available_memory_bytes
 from gcms_fenicsx.runtime.progress import Progress, quiet
 
-#: Quadrature points per block of the Gram product: 7 rows each, so a block of X holds
+#: Quadrature points per block of the Gram products: 7 rows each, so a block holds
 #: 7 · 512 · s doubles (23 MB at nf = 34 fields, 60 MB at 64).
 POINTS_PER_BLOCK = 512
 #: Cells whose field gradients are evaluated at once: 14 points each at degree 4, so a block
 #: holds 14 · 1024 · nf · 3 doubles (16 MB at 47 fields) however large the mesh.
 CELLS_PER_BLOCK = 1024
-#: Copies of A (s × s doubles) alive at once on rank 0: the sums, the ranks' reduction, the
-#: symmetrised result and the upper triangle written to reduced.h5 (with a margin).
+#: Copies of A (s × s doubles) alive at once on rank 0: the two sums (A is formed in one of
+#: them), the transpose's temporary while symmetrising and the upper triangle written to
+#: reduced.h5 (with a margin).
 COEFFICIENT_COPIES = 4
 #: The components (i, j), i ≤ j, of C and their weights ω_ij in |C − I|².
 COMPONENTS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
@@ -90,31 +92,53 @@ def gradient_blocks(mesh: Any, fields: np.ndarray | None, comm: Any
     return len(starts), blocks()
 
 
-def coefficient_sums(D: np.ndarray, weights: np.ndarray, material: Material
-                     ) -> tuple[np.ndarray, np.ndarray, float]:
-    """(A, b, c) of the module docstring summed over the given points (D: points × nf × 3):
-    A = λ/4 Σ w t tᵀ + μ/2 Σ w ω r rᵀ from two Gram products per POINTS_PER_BLOCK points (λ
-    may be negative: ν < 0)."""
-    nf = D.shape[1]
-    packing = Packing(nf)
-    s = len(packing.rows)
-    mu, lmbda = material.lame
-    T, R, t_sum = np.zeros((s, s)), np.zeros((s, s)), np.zeros(s)
-    omega = np.sqrt(np.array(OFF_DIAGONAL_WEIGHT))
-    for start in range(0, len(D), POINTS_PER_BLOCK):
-        Dk, wk = D[start:start + POINTS_PER_BLOCK], weights[start:start + POINTS_PER_BLOCK]
-        r = np.stack([packing.svec(Dk[:, :, i, None] * Dk[:, None, :, j])
-                      for i, j in COMPONENTS], axis=1)                   # (k, 6, s)
-        t = r[:, 0] + r[:, 1] + r[:, 2]
-        t_sum += wk.dot(t)
-        root = np.sqrt(wk)[:, None]
-        Xt = t * root
-        Xr = (r * (root * omega)[:, :, None]).reshape(-1, s)
-        T += Xt.T.dot(Xt)
-        R += Xr.T.dot(Xr)
-    volume = float(weights.sum())
-    return (0.25 * lmbda * T + 0.5 * mu * R, -(0.75 * lmbda + 0.5 * mu) * t_sum,
-            (1.125 * lmbda + 0.75 * mu) * volume)
+@dataclass
+class GramSums:
+    """The sums the coefficients are made of, accumulated over points (module docstring):
+    T = Σ w t tᵀ, R = Σ w ω r rᵀ (s × s), Σ w t (s) and Σ w (the volume). Kept apart until
+    the end, so λ < 0 (ν < 0) needs no square root and one pair of s × s arrays serves every
+    block of points."""
+
+    T: np.ndarray
+    R: np.ndarray
+    t: np.ndarray
+    volume: float = 0.0
+
+    @classmethod
+    def zeros(cls, field_count: int) -> GramSums:
+        s = packed_size(field_count)
+        return cls(np.zeros((s, s)), np.zeros((s, s)), np.zeros(s))
+
+    def add(self, D: np.ndarray, weights: np.ndarray) -> None:
+        """Add the points with gradients D (points × nf × 3) and weights, POINTS_PER_BLOCK
+        at a time (two Gram products each)."""
+        pack = packing(D.shape[1])
+        s = len(self.t)
+        omega = np.sqrt(np.array(OFF_DIAGONAL_WEIGHT))
+        for start in range(0, len(D), POINTS_PER_BLOCK):
+            Dk, wk = D[start:start + POINTS_PER_BLOCK], weights[start:start + POINTS_PER_BLOCK]
+            r = np.stack([pack.svec(Dk[:, :, i, None] * Dk[:, None, :, j])
+                          for i, j in COMPONENTS], axis=1)                   # (k, 6, s)
+            t = r[:, 0] + r[:, 1] + r[:, 2]
+            self.t += wk.dot(t)
+            root = np.sqrt(wk)[:, None]
+            Xt = t * root
+            Xr = (r * (root * omega)[:, :, None]).reshape(-1, s)
+            self.T += Xt.T.dot(Xt)
+            self.R += Xr.T.dot(Xr)
+        self.volume += float(weights.sum())
+
+    def coefficients(self, material: Material) -> tuple[np.ndarray, np.ndarray, float]:
+        """(A, b, c): A = λ/4 T + μ/2 R, formed in T's memory (the sums are spent),
+        symmetrised; b = −(3λ/4 + μ/2) Σ w t; c = (9λ/8 + 3μ/4) Σ w."""
+        mu, lmbda = material.lame
+        A = self.T
+        A *= 0.25 * lmbda
+        self.R *= 0.5 * mu
+        A += self.R
+        A += A.T
+        A *= 0.5
+        return A, -(0.75 * lmbda + 0.5 * mu) * self.t, (1.125 * lmbda + 0.75 * mu) * self.volume
 
 
 def check_memory(field_count: int, available: float | None = None, comm: Any = None) -> None:
@@ -148,24 +172,21 @@ def svk_coefficients(mesh: Any, fields: np.ndarray | None, material: Material,
     progress(f"Saint Venant–Kirchhoff coefficients of {nf} fields "
              f"({packed_size(nf) ** 2 * 8 / 1e6:.0f} MB)")
     count, blocks = gradient_blocks(mesh, fields, comm)
-    s = packed_size(nf)
-    A, b, c, points = np.zeros((s, s)), np.zeros(s), 0.0, 0
+    sums, points = GramSums.zeros(nf), 0
     report = {count * k // 10 for k in range(1, 10)} if count >= 10 else set()
     for k, (D, weights) in enumerate(blocks):
         if k in report:
             progress(f"  SVK coefficients: {100 * k // count} % of the cells")
-        Ak, bk, ck = coefficient_sums(D, weights, material)
-        A += Ak
-        b += bk
-        c += ck
+        sums.add(D, weights)
         points += len(weights)
     points = comm.reduce(points, op=MPI.SUM, root=0)
-    A = comm.reduce(A, op=MPI.SUM, root=0)
-    b = comm.reduce(b, op=MPI.SUM, root=0)
-    c = comm.reduce(c, op=MPI.SUM, root=0)
+    sums.volume = comm.reduce(sums.volume, op=MPI.SUM, root=0)
+    for array in (sums.T, sums.R, sums.t):               # summed into rank 0's own arrays
+        comm.Reduce(MPI.IN_PLACE if comm.rank == 0 else array, array, op=MPI.SUM, root=0)
     if comm.rank != 0:
         return None, {}
-    coefficients = SVKCoefficients(quadratic=0.5 * (A + A.T), linear=b, constant=float(c),
+    A, b, c = sums.coefficients(material)
+    coefficients = SVKCoefficients(quadratic=A, linear=b, constant=float(c),
                                    fields_digest=dataset_digest(fields))
     return coefficients, {"fields": nf, "packed_size": len(b), "quadrature_points": points,
                           "bytes": coefficients.nbytes,

@@ -34,11 +34,12 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, NoReturn
+from typing import Any, NoReturn
 
 import h5py
 import numpy as np
 
+from gcms_fenicsx.files.array_checks import Fail, check_real_array, check_symmetric
 from gcms_fenicsx.files.outputs import atomic_file, json_text
 from gcms_fenicsx.files.svk_data import (SVK_CONSTANT, SVK_DATASETS, SVK_FIELDS,
                                          SVKCoefficients, check_svk, from_upper, write_svk)
@@ -57,7 +58,6 @@ _NDIM = {"mass": 2, "stiffness": 2, "gravity": 2, "fields": 2, "nodes_m": 2,
          "frequencies_hz": 1, "reduced_frequencies_hz": 1}
 _DICT_ATTRS = ("units", "selection", "tolerances", "material", "mesh")
 _JSON_ATTRS = ("field_names", *_DICT_ATTRS)
-_SYMMETRY_RTOL = 1e-10  # |A - Aᵀ| relative to max|A|: Kr and Mr are symmetrised when built
 _WEIGHT_SUM_TOL = 1e-9
 # what h5py raises for a truncated or corrupted file, depending on where the damage is
 class ReducedModelError(ValueError):
@@ -172,9 +172,6 @@ def validate_model(model: ReducedModel, where: str = "reduced model") -> None:
         _check_group(name, g, model.fields.shape[0], fail)
 
 
-Fail = Callable[[str], NoReturn]
-
-
 def _check_attributes(model: ReducedModel, fail: Fail) -> None:
     names = model.field_names
     if (not isinstance(names, tuple) or not names
@@ -195,13 +192,9 @@ def _check_attributes(model: ReducedModel, fail: Fail) -> None:
 def _check_arrays(model: ReducedModel, fail: Fail) -> None:
     for name in _ARRAYS:
         a = getattr(model, name)
-        if not isinstance(a, np.ndarray) or a.dtype.kind not in "fiu":
-            found = a.dtype if isinstance(a, np.ndarray) else type(a).__name__
-            fail(f"/{name} must be an array of real numbers, found {found}")
+        check_real_array(f"/{name}", a, fail)
         if a.ndim != _NDIM[name]:
             fail(f"/{name} has shape {a.shape}, expected {_NDIM[name]} dimensions")
-        if not np.all(np.isfinite(a)):
-            fail(f"/{name} holds {np.count_nonzero(~np.isfinite(a))} non-finite values")
 
 
 def _check_matrices(model: ReducedModel, fail: Fail) -> None:
@@ -224,10 +217,7 @@ def _check_matrices(model: ReducedModel, fail: Fail) -> None:
         fail(f"/nodes_m has shape {model.nodes_m.shape}, expected ({model.fields.shape[0]}, 3): "
              f"one row per row of /fields")
     for name in ("mass", "stiffness"):
-        a = getattr(model, name)
-        asym = np.max(np.abs(a - a.T), initial=0.0)
-        if asym > _SYMMETRY_RTOL * np.max(np.abs(a), initial=0.0):
-            fail(f"/{name} is not symmetric: max |A - Aᵀ| = {asym:.3e}")
+        check_symmetric(f"/{name}", getattr(model, name), fail)
     try:
         np.linalg.cholesky(mass)
     except np.linalg.LinAlgError:

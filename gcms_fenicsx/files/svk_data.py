@@ -9,20 +9,24 @@ What they mean and how they are used: ``dynamics.svk``; how they are computed:
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Callable, NoReturn
+from typing import Any
 
 import h5py
 import numpy as np
 
+from gcms_fenicsx.files.array_checks import Fail, check_real_array, check_symmetric
 from gcms_fenicsx.files.versioned import dataset_digest
 
 #: The datasets and the root attribute that hold the coefficients.
 SVK_DATASETS = ("svk/quadratic_upper", "svk/linear")
 SVK_CONSTANT = "svk_constant"
 SVK_FIELDS = "svk_fields_sha256"
-#: |A − Aᵀ| relative to max|A| (A is symmetrised when built), as for Mr and Kr.
-_SYMMETRY_RTOL = 1e-10
-Fail = Callable[[str], NoReturn]
+
+
+def packed_size(n: int) -> int:
+    """n (n + 1) / 2: the length of svec of a symmetric n × n matrix (s for nf fields), and
+    of the stored upper triangle of A (for n = s)."""
+    return n * (n + 1) // 2
 
 
 @dataclass(frozen=True)
@@ -46,7 +50,7 @@ class SVKCoefficients:
     def stored_bytes(self) -> int:
         """What reduced.h5 stores of them (A's upper triangle, b)."""
         s = len(self.linear)
-        return 8 * (s * (s + 1) // 2 + s)
+        return 8 * (packed_size(s) + s)
 
 
 def check_svk(svk: SVKCoefficients, fields: np.ndarray, fail: Fail) -> None:
@@ -56,21 +60,16 @@ def check_svk(svk: SVKCoefficients, fields: np.ndarray, fail: Fail) -> None:
         fail(f"the SVK coefficients were computed for other fields ({SVK_FIELDS} does not "
              "match /fields): reduce the body again")
     field_count = fields.shape[1]
-    s = field_count * (field_count + 1) // 2
-    A, b = svk.quadratic, svk.linear
-    for name, a, shape in (("/svk/quadratic", A, (s, s)), ("/svk/linear", b, (s,))):
-        if not isinstance(a, np.ndarray) or a.dtype.kind != "f":
-            fail(f"{name} must be an array of real numbers")
+    s = packed_size(field_count)
+    for name, a, shape in (("/svk/quadratic", svk.quadratic, (s, s)),
+                           ("/svk/linear", svk.linear, (s,))):
+        check_real_array(name, a, fail)
         if a.shape != shape:
             fail(f"{name} has shape {a.shape}, expected {shape}: s = nf (nf + 1) / 2 for "
                  f"the {field_count} fields")
-        if not np.all(np.isfinite(a)):
-            fail(f"{name} holds {np.count_nonzero(~np.isfinite(a))} non-finite values")
     if not isinstance(svk.constant, float) or not np.isfinite(svk.constant):
         fail(f"svk_constant must be a finite number, found {svk.constant!r}")
-    asym = np.max(np.abs(A - A.T), initial=0.0)
-    if asym > _SYMMETRY_RTOL * np.max(np.abs(A), initial=0.0):
-        fail(f"/svk/quadratic is not symmetric: max |A - Aᵀ| = {asym:.3e}")
+    check_symmetric("/svk/quadratic", svk.quadratic, fail)
 
 
 def write_svk(f: h5py.File, svk: SVKCoefficients) -> None:
@@ -87,8 +86,8 @@ def from_upper(upper: np.ndarray, linear: np.ndarray, constant: Any, digest: Any
     """The coefficients from the stored upper triangle of A, b and c (``fail`` if the triangle
     does not fit b's length)."""
     s = len(linear)
-    if upper.shape != (s * (s + 1) // 2,):
-        fail(f"/svk/quadratic_upper has shape {upper.shape}, expected ({s * (s + 1) // 2},): "
+    if upper.shape != (packed_size(s),):
+        fail(f"/svk/quadratic_upper has shape {upper.shape}, expected ({packed_size(s)},): "
              f"the upper triangle of an {s} × {s} matrix, as /svk/linear has {s} entries")
     A = np.zeros((s, s))
     A[np.triu_indices(s)] = upper
