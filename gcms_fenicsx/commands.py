@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from gcms_fenicsx import pipeline, stage_cache, stage_files
+from gcms_fenicsx.config.basis import attachment_loads
 from gcms_fenicsx.config.study import StudyConfig, load_config
 from gcms_fenicsx.config.table import ConfigError
 from gcms_fenicsx.files.names import MESH_FILES, MODES_FILES, REDUCE_FILES, SIMULATION_FILES
@@ -98,7 +99,8 @@ def scene_files(cfg: StudyConfig, model: ReducedModel, folder: Path, progress: P
                                   "initial motion and time span")
     results = folder / "results.h5"
     t0 = time.perf_counter()
-    summary = pipeline.simulation_stage(model, cfg.scene, results, progress)
+    summary = pipeline.simulation_stage(model, cfg.scene, results, progress, cfg.basis.kind,
+                                        attachment_loads(cfg.basis, cfg.scene))
     if plots:
         summary["plots"] = plot_results(results, folder)
     if stages is not None:
@@ -114,7 +116,8 @@ def simulation_summary(summary: dict) -> str:
     return "\n".join([
         f"simulation: {summary['steps']} steps to t = {summary['time_reached_s']:.6g} s, "
         f"{state}",
-        f"  {summary['reduced_dofs']} coordinates ({summary['elasticity']} elasticity), "
+        f"  {summary['reduced_dofs']} coordinates ({summary['basis']} basis, "
+        f"{summary['elasticity']} elasticity), "
         f"{summary['constraint_rows']} constraint rows, "
         f"{_number(summary['steps_per_second'], '.0f')} steps/s, "
         f"{_number(summary['newton_iterations_mean'], '.2f')} Newton iterations per step",

@@ -34,7 +34,8 @@ name = "clamp"
 """
 
 #: Bad [scene] input and the key its one-line error names: time_step = 0, rho_inf outside
-#: 0..1, a zero joint axis, no [scene] at all.
+#: 0..1, a zero joint axis, no [scene] at all, the rotor basis for a clamped body, a
+#: misspelt basis kind.
 BAD_SCENES = {
     "time_step=0": (SCENE.replace("time_step = 1e-3", "time_step = 0"), "[scene] time_step"),
     "rho_inf=1.5": (SCENE.replace("time_step = 1e-3", "time_step = 1e-3\nrho_inf = 1.5"),
@@ -42,6 +43,8 @@ BAD_SCENES = {
     "zero_axis": (SCENE.replace('name = "clamp"', 'name = "clamp"\naxis = [0, 0, 0]'),
                   "[scene.joints[0]] axis"),
     "no_scene": ("", "[scene]"),
+    "rotor_basis_clamped": (SCENE + '\n[basis]\nkind = "rotor"\n', "joint 'clamp' is fixed"),
+    "basis_kind": (SCENE + '\n[basis]\nkind = "rotr"\n', "[basis] kind"),
 }
 
 #: Modules the standalone integrator must do without.

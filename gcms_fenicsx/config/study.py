@@ -23,7 +23,8 @@ from gcms_fenicsx.config.geometry import parse_geometry, parse_mesh
 from gcms_fenicsx.dynamics.scene import Scene, parse_scene
 from gcms_fenicsx.config.material import Material, parse_material
 from gcms_fenicsx.config.modes import ModesConfig, parse_modes
-from gcms_fenicsx.config.basis import BasisConfig, attachment_loads, parse_basis
+from gcms_fenicsx.config.basis import (BasisConfig, attachment_loads, choose_basis,
+                                       parse_basis)
 from gcms_fenicsx.config.outputs import OutputsConfig, parse_outputs
 from gcms_fenicsx.config.scene_band import scene_band
 from gcms_fenicsx.config.selection import SelectionConfig, parse_selection
@@ -100,6 +101,8 @@ def parse_config(raw: Mapping[str, Any], source: str = "<dict>") -> StudyConfig:
         band = scene_band(scene)
         modes = replace(modes, max_frequency_hz=band.max_frequency_hz, band=band)
     basis = parse_basis(raw.get("basis"))
+    if basis.kind == "rotor" and scene is not None:
+        choose_basis(basis.kind, scene)          # refused here, before any stage runs
     modes = replace(modes, attachment=attachment_loads(basis, scene) or None)
     return StudyConfig(
         geometry=geom,

@@ -24,6 +24,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from gcms_fenicsx.dynamics.lapack import dot_into
 from gcms_fenicsx.dynamics.rotation import skew
 from gcms_fenicsx.files.reduced_model import ReducedModel
 
@@ -118,6 +119,58 @@ class Projections(NamedTuple):
     affine_cross: np.ndarray
 
 
+class FieldFrame:
+    """T = I ⊗ R on GCMS coordinates: every field's 3-vector turned by R, the frame's rotation
+    (the frame operations the integrator makes; ``rotor.RotorFrame`` has the same for rotor
+    coordinates, whose rotation is a phase)."""
+
+    @staticmethod
+    def to_local(y: np.ndarray, R: np.ndarray) -> np.ndarray:
+        """Tᵀ y."""
+        return y.reshape(-1, 3).dot(R).ravel()
+
+    @staticmethod
+    def to_global(y: np.ndarray, R: np.ndarray) -> np.ndarray:
+        """T y."""
+        return y.reshape(-1, 3).dot(R.T).ravel()
+
+    @staticmethod
+    def back(z: np.ndarray, R: np.ndarray) -> np.ndarray:
+        """−T z (a Newton correction turned back to global coordinates)."""
+        return z.reshape(-1, 3).dot(-R.T).ravel()
+
+    @staticmethod
+    def residual(y: np.ndarray, gradient: np.ndarray, R_state: np.ndarray,
+                 R: np.ndarray) -> np.ndarray:
+        """r_l = Tᵀ(y + f) with T = I ⊗ R, from forces f given in the state's own frame R_state
+        (``gradient``, nf × 3): where the two frames are one, as in the first iteration, f is
+        never turned."""
+        r = y.reshape(-1, 3).dot(R)
+        if R_state is R:
+            r += gradient
+        else:
+            r += gradient.dot(R_state.T.dot(R))
+        return r.ravel()
+
+    @staticmethod
+    def turn_rows(C: np.ndarray, R: np.ndarray, out: np.ndarray) -> None:
+        """out = C T for the rows C (m × n)."""
+        dot_into(C.reshape(-1, 3), R, out.reshape(-1, 3))
+
+    @staticmethod
+    def directions(U: np.ndarray, R: np.ndarray) -> np.ndarray:
+        """Rᵀ u_i for the constraint directions U (m × 3)."""
+        return U.dot(R)
+
+    @staticmethod
+    def matrix(R: np.ndarray, n: int) -> np.ndarray:
+        """T = I ⊗ R (n × n), dense."""
+        return np.kron(np.eye(n // 3), R)
+
+
+FIELD_FRAME = FieldFrame()
+
+
 @dataclass(frozen=True)
 class Body:
     """Constant matrices and rigid-field data of one flexible body in GCMS coordinates.
@@ -171,6 +224,10 @@ class Body:
     def field_count(self) -> int:
         return self.q0.shape[0] // 3
 
+    @property
+    def frame(self) -> FieldFrame:
+        return FIELD_FRAME
+
     def displacement(self, q: np.ndarray) -> np.ndarray:
         """Nodal displacements F Q − X (N × 3)."""
         return np.asarray(self.node_fields @ q.reshape(-1, 3)) - self.nodes_m
@@ -199,6 +256,13 @@ class Body:
         Q = q.reshape(-1, 3)
         drift = np.asarray(velocity, float) - Omega @ self.center_of_mass(q)
         return (Q @ Omega.T + np.outer(self.unit, drift)).ravel()
+
+    def rigid_velocities(self, q: np.ndarray) -> np.ndarray:
+        """The six rigid velocities at q (n × 6): translations along x, y, z, then rotations
+        about x, y, z through the centre of mass."""
+        E, zero = np.eye(3), np.zeros(3)
+        return np.column_stack([self.rigid_velocity(q, E[k], zero) for k in range(3)]
+                               + [self.rigid_velocity(q, zero, E[k]) for k in range(3)])
 
 
 def projected(force: Any, A: Any) -> Any:

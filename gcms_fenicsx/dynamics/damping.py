@@ -32,10 +32,12 @@ class RayleighDamping:
     def active(self) -> bool:
         return (self.alpha, self.beta) != (0.0, 0.0)
 
-    def on(self, body: Body) -> DampingForce:
-        """The damping force on ``body``."""
-        return DampingForce(body, projected(body.projections.force,
-                                            self.alpha * body.mass + self.beta * body.stiffness))
+    def on(self, body: Any) -> Any:
+        """The damping force on ``body`` (a rotor body makes its own, ``rotor.RotorDamping``)."""
+        D0 = self.alpha * body.mass + self.beta * body.stiffness
+        if not isinstance(body, Body):
+            return body.damping_force(D0)
+        return DampingForce(body, projected(body.projections.force, D0))
 
     def iteration_matrix(self, body: Body, beta_p: float, gamma_p: float) -> Any:
         """S₀ = β' Mr + γ' D₀ + Kr = (β' + γ'α) Mr + (1 + γ'β) Kr."""

@@ -112,7 +112,7 @@ def consistent_velocity(body: Body, constraints: Constraints, mass_solve: Solve,
     """The initial q̇: v corrected by the rigid velocity nearest it (kinetic-energy norm)
     that makes ġ = C q̇ + Ċ q = 0.
 
-    Correcting within the six rigid velocities (``Body.rigid_velocity`` at q) turns, say,
+    Correcting within the rigid velocities the body has (``Body.rigid_velocities`` at q) turns, say,
     a spin the joints forbid into the rotation about the joint they allow, instead of
     putting the difference into the stiffest elastic coordinates; only what no rigid
     velocity can satisfy (a joint that constrains deformation rates) is corrected in
@@ -124,9 +124,7 @@ def consistent_velocity(body: Body, constraints: Constraints, mass_solve: Solve,
     U, dU = c.directions_at(t), c.directions_at(t, 1)
     C = c.jacobian(U)
     violation = C @ v + c.values(q, dU)
-    E = np.eye(3)
-    rigid = np.column_stack([body.rigid_velocity(q, E[k], np.zeros(3)) for k in range(3)]
-                            + [body.rigid_velocity(q, np.zeros(3), E[k]) for k in range(3)])
+    rigid = body.rigid_velocities(q)
     # min |W a|²_M  subject to  C W a = −violation  (minimum-norm if C W is rank-deficient)
     CW = C @ rigid
     weight = rigid.T @ np.asarray(body.mass @ rigid)
@@ -153,7 +151,7 @@ def consistent_state(body: Body, constraints: Constraints, forces: ExternalForce
     if damping.active:
         fd, dissipation = damping.on(body).local_force(v, es)
         gradient = gradient + fd
-    f = f_ext - gradient.dot(es.rotation.T).ravel()
+    f = f_ext - body.frame.to_global(gradient, es.rotation)
     lam = np.zeros(c.count)
     if c.count:
         C = c.jacobian(U)

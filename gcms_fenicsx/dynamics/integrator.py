@@ -23,6 +23,10 @@ Mr = G ⊗ I3 commutes with T, so S = T S₀ Tᵀ + X Y with X Y of rank 9
 per step R is taken at the first iteration and kept (modified Newton), and the linear
 system is solved by ``kkt`` as the ``jacobian`` policy says.
 
+A rotor body (``rotor``: coordinates p, q = B p, turning about one axis) runs the same
+scheme with its own co-rotated law, frame T(ψ) and rank-2 change of frame (``body.frame``
+carries the turning of coordinates for either kind of body).
+
 The solve with S₀ goes through a ``factorize`` callable, so the same integrator runs the
 dense reduced body (NumPy, default) and the full finite-element model (a sparse LU); the
 internal force goes through an ``elastic`` callable (default: co-rotated linear
@@ -47,7 +51,7 @@ import numpy as np
 
 from gcms_fenicsx.dynamics.alpha import AlphaParameters, newton_coefficients, step_matrices
 from gcms_fenicsx.dynamics.body import Body
-from gcms_fenicsx.dynamics.corotated import elastic_state
+from gcms_fenicsx.dynamics.corotated import elastic_state, local_frame_update
 from gcms_fenicsx.dynamics.damping import RayleighDamping
 from gcms_fenicsx.dynamics.errors import IntegrationError, SingularMatrixError
 from gcms_fenicsx.dynamics.factorization import (Factorize, Solve, dense_factorization,
@@ -57,6 +61,7 @@ from gcms_fenicsx.dynamics.joints import Constraints
 from gcms_fenicsx.dynamics.kkt import AssembledKKT, BorderedKKT, TangentKKT
 from gcms_fenicsx.dynamics.loads import ExternalForces
 from gcms_fenicsx.dynamics.rotation import InvertedBodyError
+from gcms_fenicsx.dynamics.rotor import RotorBody, rotor_frame_update, rotor_state
 from gcms_fenicsx.dynamics.scene import Solver
 from gcms_fenicsx.dynamics.state import Elastic, State, StepInfo
 
@@ -77,13 +82,22 @@ class GeneralizedAlpha:
     (docs/integrator_profile.md counts them).
     """
 
-    def __init__(self, body: Body, constraints: Constraints, forces: ExternalForces,
-                 time_step_s: float, rho_inf: float, damping: RayleighDamping,
-                 solver: Solver, factorize: Factorize = dense_factorization,
+    def __init__(self, body: Body | RotorBody, constraints: Constraints,
+                 forces: ExternalForces, time_step_s: float, rho_inf: float,
+                 damping: RayleighDamping, solver: Solver,
+                 factorize: Factorize = dense_factorization,
                  elastic: Elastic | None = None) -> None:
         self.body, self.constraints, self.forces = body, constraints, forces
-        self.elastic = elastic or partial(elastic_state, body)
+        self.frame = body.frame
         corotated = elastic is None
+        if isinstance(body, RotorBody):
+            if not corotated:
+                raise ValueError("a rotor body runs its own co-rotated law")
+            self.elastic: Elastic = partial(rotor_state, body)
+            frame_update, rank = partial(rotor_frame_update, body), 2
+        else:
+            self.elastic = elastic or partial(elastic_state, body)
+            frame_update, rank = partial(local_frame_update, body), 9
         if not corotated and (solver.jacobian != "rotated" or damping.active):
             raise ValueError("another elastic model than the co-rotated one runs with "
                              'jacobian = "rotated" and without damping')
@@ -107,10 +121,10 @@ class GeneralizedAlpha:
         apply_A = damping.frame_operator(body, self.gamma_p)
         if solver.jacobian == "assembled":
             self.linear: BorderedKKT | AssembledKKT = AssembledKKT(body, constraints, S0,
-                                                                    apply_A)
+                                                                    apply_A, frame_update)
         else:
             self.linear = BorderedKKT(body, constraints, self._factorized(S0, factorize),
-                                      apply_A)
+                                      apply_A, frame_update, rank)
         #: the exact-tangent Newton matrix of another elastic law, for the steps that need it
         self.tangent_kkt = (TangentKKT(body, constraints, self.beta_p)
                             if not corotated and isinstance(body.mass, np.ndarray)
@@ -148,7 +162,7 @@ class GeneralizedAlpha:
         f_ext = self.forces(t1)
         tol, mass, total_mass, update = (self.tolerance_m, self.body.mass_product,
                                          self.body.total_mass_kg, self.update)
-        targets, sqrt, inf = c.targets, math.sqrt, math.inf
+        targets, sqrt, inf, in_frame = c.targets, math.sqrt, math.inf, self.frame.residual
         g = lam[:0]
         dissipation = 0.0
         previous = inf
@@ -173,7 +187,7 @@ class GeneralizedAlpha:
             if iteration == 1 or lin.every_iteration:
                 linear.prepare(es, U, C, lin.exact,
                                relinearise=lin.relinearise or lin.every_iteration)
-            r = _in_frame(y, gradient, es.rotation, linear.R)
+            r = in_frame(y, gradient, es.rotation, linear.R)
             dq, dlam = linear.solve(r, g)
             delta = sqrt(abs(dq.dot(mass.dot(dq))) / total_mass)
             if not lin.every_iteration and delta > UPGRADE_RATE * previous:
@@ -183,7 +197,7 @@ class GeneralizedAlpha:
                 else:
                     lin = self.policy.upgrade(lin)
                     linear.prepare(es, U, C, lin.exact)
-                    r = _in_frame(y, gradient, es.rotation, linear.R)
+                    r = in_frame(y, gradient, es.rotation, linear.R)
                     dq, dlam = linear.solve(r, g)
                     delta = sqrt(abs(dq.dot(mass.dot(dq))) / total_mass)
             if not delta < inf:
@@ -249,15 +263,3 @@ class GeneralizedAlpha:
             f"affine map has {exc.numbers}, after {more}increments {shown} m (tolerance "
             f"{self.tolerance_m:.1e} m); {remedy} or the loads", t1)
 
-
-def _in_frame(y: np.ndarray, gradient: np.ndarray, R_state: np.ndarray, R: np.ndarray
-              ) -> np.ndarray:
-    """r_l = Tᵀ(y + f) with T = I ⊗ R, the residual in the frame the Newton matrix is
-    linearised in, from forces f given in the state's own frame R_state (``gradient``, nf × 3):
-    where the two frames are one, as in the first iteration, f is never turned."""
-    r = y.reshape(-1, 3).dot(R)
-    if R_state is R:
-        r += gradient
-    else:
-        r += gradient.dot(R_state.T.dot(R))
-    return r.ravel()

@@ -21,6 +21,10 @@ in the initial state, so every joint holds its group where it starts.
 Rows sharing a v (a joint's position rows, say) are computed together: the integrator's
 solves depend on the rows only through the few distinct v.
 
+In rotor coordinates p (q = B p, ``rotor``) the rows are c_i B: still linear in u_i,
+Σ_l u_il (kron(v, e_l) B), and independence is decided in the metric of Mp; a row the rotor
+basis cannot move at all (its columns give it no component) is implied by the basis.
+
 Redundant joints (two spherical joints on one group, a revolute and a spherical one, two
 fixed joints, a fixed and a revolute one) repeat rows, and the constraint block of the
 Newton matrix is then singular. The rows are linear in q, so whether a row is implied by the
@@ -47,6 +51,9 @@ from gcms_fenicsx.dynamics.scene import Drive, Joint, SceneError
 #: after c is projected out of the group's span.
 _MIN_LEVER = 1e-3
 EPS = float(np.finfo(float).eps)
+#: A row in subspace coordinates that keeps less than this fraction of its squared reach is
+#: implied by the subspace (``independent_rows``).
+UNMOVED = 1e-12
 #: Contributions below this fraction of the largest are not named when a drive's row is
 #: found implied by other joints' rows (only the message uses it).
 _NAMED_SHARE = 1e-6
@@ -70,7 +77,8 @@ class Constraints:
 
     ``vectors`` (nv, nf); ``index`` (m,) maps rows to vectors and ``row_vectors`` (m, nf) is
     ``vectors[index]``; ``directions`` (m, 3) are the u_i at θ = 0; ``drives`` maps a row to
-    (Drive, axis) for the rotating rows.
+    (Drive, axis) for the rotating rows. ``coordinates``: B when the run's coordinates are
+    p with q = B p (the rotor basis), None for the body's own.
     """
 
     vectors: np.ndarray
@@ -81,6 +89,7 @@ class Constraints:
     drives: dict[int, tuple[Drive, np.ndarray]]
     rows: tuple[RowInfo, ...]
     dropped: tuple[RowInfo, ...] = ()   # redundant rows left out (module docstring)
+    coordinates: np.ndarray | None = None
 
     @property
     def count(self) -> int:
@@ -118,9 +127,21 @@ class Constraints:
                                                                     + (1.0 - c) * along))
         return U
 
+    @cached_property
+    def unit_rows(self) -> np.ndarray:
+        """c_k(e_l) (nv, 3, n): the row of vector k for the direction e_l, kron(v_k, e_l) (B)."""
+        nv, nf = self.vectors.shape
+        rows = np.zeros((nv, 3, nf, 3))
+        for l in range(3):
+            rows[:, l, :, l] = self.vectors
+        rows = rows.reshape(nv, 3, 3 * nf)
+        return rows if self.coordinates is None else rows.dot(self.coordinates)
+
     def values(self, q: np.ndarray, U: np.ndarray) -> np.ndarray:
         """C q = [u_i · (Qᵀ v_{k_i})]_i for the directions U (without the targets); for q of
         shape (n, k), C applied to each column (m, k)."""
+        if self.coordinates is not None:
+            q = self.coordinates.dot(q)
         if q.ndim == 1:
             return (U * (self.row_vectors @ q.reshape(-1, 3))).sum(axis=1)
         X = self.row_vectors @ q.reshape(self.row_vectors.shape[1], 3 * q.shape[1])
@@ -130,12 +151,10 @@ class Constraints:
         """g(q, t) = values − d for the directions U = u(t)."""
         return self.values(q, U) - self.targets
 
-    def transpose_times(self, lam: np.ndarray, U: np.ndarray) -> np.ndarray:
-        """Cᵀ λ = vec(Σ_i λ_i v_{k_i} u_iᵀ)."""
-        return (self.row_vectors.T @ (lam[:, None] * U)).ravel()
-
     def jacobian(self, U: np.ndarray) -> np.ndarray:
-        """C (m × n), dense: row i is kron(v_{k_i}, u_i)."""
+        """C (m × n), dense: row i is kron(v_{k_i}, u_i) (times B)."""
+        if self.coordinates is not None:
+            return np.einsum("il,ilj->ij", U, self.unit_rows[self.index])
         return (self.row_vectors[:, :, None] * U[:, None, :]).reshape(self.count,
                                                                       3 * self.vectors.shape[1])
 
@@ -166,18 +185,29 @@ def _lever(span: np.ndarray, c: np.ndarray, turning: np.ndarray | None) -> np.nd
     return perp[:, best] / lengths[best] if lengths[best] > _MIN_LEVER else None
 
 
-def build_constraints(body: Body, joints: tuple[Joint, ...], q_start: np.ndarray,
+def build_constraints(body: Any, joints: tuple[Joint, ...], q_start: np.ndarray,
                       mass_solve: MassSolve | None = None) -> Constraints:
     """The independent rows of every joint, with targets taken at ``q_start`` (module
     docstring); ``mass_solve`` applies Mr⁻¹ (default: a dense solve). Drive rows come last in
-    the elimination, so a drive another joint contradicts is found whatever the joints' order."""
-    every = _all_rows(body, joints, q_start)
+    the elimination, so a drive another joint contradicts is found whatever the joints' order.
+    A rotor body (``rotor.RotorBody``: ``full`` and ``coordinates``) gets the rows of its full
+    body in its coordinates p; ``q_start`` is then p."""
+    if isinstance(body, Body):
+        every = _all_rows(body, joints, q_start)
+    else:
+        B = body.coordinates
+        every = replace(_all_rows(body.full, joints, B @ q_start), coordinates=B)
     if not every.count:
         return every
     solve = mass_solve or partial(np.linalg.solve, np.asarray(body.mass))
     C = every.jacobian(every.directions)
     order = [i for i in range(every.count) if i not in every.drives] + sorted(every.drives)
-    keep, implied = independent_rows(C, body.mass, solve, order)
+    reach = None
+    if every.coordinates is not None:
+        C_full = replace(every, coordinates=None).jacobian(every.directions)
+        full_mass = np.asarray(body.full.mass)
+        reach = np.einsum("ij,ji->i", C_full, np.linalg.solve(full_mass, C_full.T))
+    keep, implied = independent_rows(C, body.mass, solve, order, reach)
     for i, weights in implied.items():
         if i in every.drives:
             raise _contradicting_drive(joints, every, i, weights)
@@ -233,8 +263,9 @@ def _all_rows(body: Body, joints: tuple[Joint, ...], q_start: np.ndarray) -> Con
     return replace(base, targets=base.values(q_start, base.directions_at(0.0)))
 
 
-def independent_rows(C: np.ndarray, mass: Any, mass_solve: MassSolve,
-                     order: list[int]) -> tuple[list[int], dict[int, dict[int, float]]]:
+def independent_rows(C: np.ndarray, mass: Any, mass_solve: MassSolve, order: list[int],
+                     reach: np.ndarray | None = None
+                     ) -> tuple[list[int], dict[int, dict[int, float]]]:
     """(kept, implied): the rows of C (m × n) that are independent in the metric Mr⁻¹, taken
     greedily in ``order`` (kept: ascending), and for each other row the weights a_k of the rows
     kept before it that imply it (ĉ = Σ a_k ĉ_k for the rows normalised in that metric).
@@ -248,21 +279,29 @@ def independent_rows(C: np.ndarray, mass: Any, mass_solve: MassSolve,
     and of the normalisation; E moves the pivot of a row c = Σ a_k c_k by at most
     [−a; 1]ᵀ E [−a; 1] ≤ (1 + |a|²) ‖E‖₂ ≤ (1 + |a|²) m (η + (m + 2)ε). A row is implied
     when its pivot is below that.
+
+    ``reach``: for rows in a subspace's coordinates (the rotor basis), c_j Mr⁻¹ c_jᵀ of the same
+    rows in the full coordinates; a row with G_jj ≤ UNMOVED · reach_j (the subspace gives it
+    less than 1e-6 of its reach in cosine) is implied by the subspace, with no weights.
     """
     m = C.shape[0]
     W = np.asarray(mass_solve(C.T))
     G = C @ W
     G = 0.5 * (G + G.T)
     scale = np.sqrt(np.diag(G))
+    moved = np.ones(m, bool) if reach is None else np.diag(G) > UNMOVED * reach
+    scale = np.where(moved, scale, 1.0)
     R = np.asarray(mass @ W) - C.T
     eta = float(np.sqrt(np.max(np.abs(np.einsum("ij,ij->j", R, np.asarray(mass_solve(R))))
-                               / np.diag(G))))
+                               / scale ** 2)))
     bound = m * (eta + (m + 2) * EPS)
     G_hat = G / np.outer(scale, scale)
     kept: list[int] = []
     L = np.zeros((0, 0))
-    implied: dict[int, dict[int, float]] = {}
+    implied: dict[int, dict[int, float]] = {i: {} for i in order if not moved[i]}
     for i in order:
+        if not moved[i]:          # a row the coordinates cannot move: implied by them
+            continue
         l = np.linalg.solve(L, G_hat[kept, i]) if kept else np.zeros(0)
         a = np.linalg.solve(L.T, l) if kept else np.zeros(0)
         pivot = 1.0 - float(l @ l)
@@ -286,7 +325,8 @@ def _subset(c: Constraints, keep: list[int]) -> Constraints:
                        drives={new: c.drives[old] for new, old in enumerate(keep)
                                if old in c.drives},
                        rows=tuple(c.rows[i] for i in keep),
-                       dropped=tuple(r for i, r in enumerate(c.rows) if i not in keep))
+                       dropped=tuple(r for i, r in enumerate(c.rows) if i not in keep),
+                       coordinates=c.coordinates)
 
 
 def _contradicting_drive(joints: tuple[Joint, ...], c: Constraints, row: int,

@@ -16,49 +16,50 @@ from typing import Any, Callable
 
 import numpy as np
 
-from gcms_fenicsx.dynamics.body import Body
-from gcms_fenicsx.dynamics.corotated import frame_update, local_frame_update
 from gcms_fenicsx.dynamics.joints import Constraints
 from gcms_fenicsx.dynamics.lapack import dot_into, inverse
 
 Solve = Callable[[np.ndarray], np.ndarray]
+#: (elastic state, X ↦ A X) ↦ (X_loc, Y_loc): the change-of-frame term of the co-rotated law
+#: in the body frame (``corotated.local_frame_update``, ``rotor.rotor_frame_update``).
+FrameUpdate = Callable[[Any, Callable[[np.ndarray], np.ndarray]], tuple[np.ndarray, np.ndarray]]
 
 
 class BorderedKKT:
     """Newton corrections for S = T S₀ Tᵀ (+ X Y) bordered by the constraints, in the body frame.
 
-    With T = I ⊗ R fixed for the step, Δq = T Δq_l, r_l = Tᵀ r, C_l = C T (rows
+    With T = I ⊗ R (``body.frame``: for rotor coordinates, T(ψ)) fixed for the step, Δq = T Δq_l, r_l = Tᵀ r, C_l = C T (rows
     kron(v_i, Rᵀu_i)), X = T X_loc and Y = Y_loc Tᵀ, the system is
     [S₀ + X_loc Y_loc, C_lᵀ; C_l, 0] [Δq_l; Δλ] = −[r_l; g]. With z = S₀⁻¹ r_l, the border
     B = S₀⁻¹ [C_lᵀ | X_loc] and G = [C_l; Y_loc] (Woodbury):
 
         (G B + [0 0; 0 I]) [Δλ; y] = [g; 0] − G z,    Δq_l = −(z + B [Δλ; y]).
 
-    For rows kron(v_k, u_i), S₀⁻¹ c_i = Y_k Rᵀu_i with Y_k = S₀⁻¹ [kron(v_k, e_l)]_l solved
+    For rows c(u_i) linear in the direction, c(u) T = c(Rᵀu) (the rows are equivariant), so
+    S₀⁻¹ c_l,i = Y_k Rᵀu_i with Y_k = S₀⁻¹ [c_k(e_l)]_l (``Constraints.unit_rows``) solved
     once per run. Per iteration (r_l comes turned, ``integrator``): one solve with S₀, three
     small products and Δq turned back; per step: Bᵀ's and G's constraint rows (one product
     each, written in place), the (m + 9)-square capacitance matrix G B + [0 0; 0 I] (one
     product) and its inverse. Bᵀ, G and the rest are allocated once for each kind of step
-    (with the rank-9 term or without).
+    (with the rank-9 term or without; ``rank``: 9, or 2 for rotor coordinates).
     """
 
-    def __init__(self, body: Body, constraints: Constraints, solve: Solve,
-                 apply_A: Callable[[np.ndarray], np.ndarray]) -> None:
+    def __init__(self, body: Any, constraints: Constraints, solve: Solve,
+                 apply_A: Callable[[np.ndarray], np.ndarray], frame_update: FrameUpdate,
+                 rank: int = 9) -> None:
         self.body, self.c, self.solve0, self.apply_A = body, constraints, solve, apply_A
+        self.frame, self.frame_update = body.frame, frame_update
         self.kept = False       # the rank-9 term's rows hold a linearisation
         m = self.m = constraints.count
         n = body.dofs
         if m:
             nv = len(constraints.vectors)
-            basis = np.zeros((n, nv, 3))
-            for l in range(3):
-                basis.reshape(body.field_count, 3, nv, 3)[:, l, :, l] = constraints.vectors.T
-            Y = np.asarray(solve(basis.reshape(n, 3 * nv))).reshape(n, nv, 3)
+            Y = np.asarray(solve(constraints.unit_rows.reshape(3 * nv, n).T)).reshape(n, nv, 3)
             self.YT = np.ascontiguousarray(Y[:, constraints.index, :].reshape(n, 3 * m).T)
             self.blocks = np.zeros((m, 3 * m))                   # row i: Rᵀu_i at columns 3i..
             self.diagonal = np.lib.stride_tricks.as_strided(
                 self.blocks, shape=(m, 3), strides=((3 * m + 3) * 8, 8))
-        self.kinds = {exact: _border(n, m + 9 * exact, m) for exact in (False, True)}
+        self.kinds = {exact: _border(n, m + rank * exact, m) for exact in (False, True)}
         self.BT: np.ndarray | None = None
 
     def prepare(self, es: Any, U: np.ndarray, C: np.ndarray | None, exact: bool,
@@ -74,7 +75,7 @@ class BorderedKKT:
         ``relinearise`` (or nothing kept yet) recomputes them at ``es``.
         """
         R, m = es.rotation, self.m
-        self.R, self.back = R, -R.T
+        self.R = R
         if exact and (relinearise or not self.kept):
             self._relinearise(es)
         if not m and not exact:
@@ -82,15 +83,15 @@ class BorderedKKT:
             return
         BT, G, minus_pad, BT_rows, G_rows = self.kinds[exact]
         if m:
-            self.diagonal[...] = U.dot(R)                                 # Rᵀu_i
+            self.diagonal[...] = self.frame.directions(U, R)              # Rᵀu_i
             dot_into(self.blocks, self.YT, BT_rows)                       # (S₀⁻¹ C_lᵀ)ᵀ
-            dot_into(C.reshape(-1, 3), R, G_rows)                         # C_l = C T
+            self.frame.turn_rows(C, R, G_rows)                            # C_l = C T
         self.BT, self.G = BT, G
         self.minus_inverse = inverse(minus_pad - G.dot(BT.T))           # −(G B + [0 0; 0 I])⁻¹
 
     def _relinearise(self, es: Any) -> None:
         """X_loc, Y_loc of the rank-9 term at ``es``: (S₀⁻¹ X_loc)ᵀ into Bᵀ, Y_loc into G."""
-        X_loc, Y_loc = local_frame_update(self.body, es, self.apply_A)
+        X_loc, Y_loc = self.frame_update(es, self.apply_A)
         BT, G = self.kinds[True][:2]
         BT[self.m:] = self.solve0(X_loc).T
         G[self.m:] = Y_loc
@@ -101,31 +102,32 @@ class BorderedKKT:
         and g."""
         z = self.solve0(r_l)                                            # S₀⁻¹ Tᵀ r
         if self.BT is None:
-            return z.reshape(-1, 3).dot(self.back).ravel(), g[:0]
+            return self.frame.back(z, self.R), g[:0]
         Gz = self.G.dot(z)
         Gz[:self.m] -= g
         sol = self.minus_inverse.dot(Gz)                              # [Δλ; y]
         z += sol.dot(self.BT)
-        return z.reshape(-1, 3).dot(self.back).ravel(), sol[:self.m]
+        return self.frame.back(z, self.R), sol[:self.m]
 
 
 def _border(n: int, k: int, m: int) -> tuple[np.ndarray, ...]:
     """Bᵀ (k × n), G (k × n), minus the capacitance matrix's identity block [0 0; 0 I]
-    (k × k) beyond the m constraint rows, and the constraint rows of Bᵀ and of G (as
-    (m nf, 3)), which every step rewrites."""
+    (k × k) beyond the m constraint rows, and the constraint rows of Bᵀ and of G, which every
+    step rewrites."""
     minus_pad = np.zeros((k, k))
     minus_pad[m:, m:] = -np.eye(k - m)
     BT, G = np.zeros((k, n)), np.zeros((k, n))
-    return BT, G, minus_pad, BT[:m], G[:m].reshape(-1, 3)
+    return BT, G, minus_pad, BT[:m], G[:m]
 
 
 class AssembledKKT:
     """Textbook Newton: [S Cᵀ; C 0] with S = T S₀ Tᵀ + X Y assembled densely and solved by LU at
     every ``solve`` (dense bodies only; the baseline the benchmarks compare against)."""
 
-    def __init__(self, body: Body, constraints: Constraints, S0: np.ndarray,
-                 apply_A: Callable[[np.ndarray], np.ndarray]) -> None:
+    def __init__(self, body: Any, constraints: Constraints, S0: np.ndarray,
+                 apply_A: Callable[[np.ndarray], np.ndarray], frame_update: FrameUpdate) -> None:
         self.body, self.c, self.S0, self.apply_A = body, constraints, S0, apply_A
+        self.frame_update = frame_update
         self.es: Any = None
         self.C: np.ndarray | None = None
 
@@ -137,10 +139,11 @@ class AssembledKKT:
     def solve(self, r_l: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(Δq, Δλ) for the residuals r_l = Tᵀ r (in the frame R of ``prepare``) and g."""
         n, m = self.body.dofs, self.c.count
-        r = r_l.reshape(-1, 3).dot(self.R.T).ravel()
-        T = np.kron(np.eye(n // 3), self.R)
-        X, Y = frame_update(self.body, self.es, self.apply_A)
-        S = T @ self.S0 @ T.T + X @ Y
+        frame = self.body.frame
+        r = frame.to_global(r_l, self.R)
+        T = frame.matrix(self.R, n)
+        X, Y = self.frame_update(self.es, self.apply_A)
+        S = T @ (self.S0 + X @ Y) @ T.T
         C = self.C if m else np.zeros((0, n))
         kkt = np.block([[S, C.T], [C, np.zeros((m, m))]])
         sol = -np.linalg.solve(kkt, np.concatenate([r, g]))
@@ -152,8 +155,8 @@ class TangentKKT:
     bordered matrix [S Cᵀ; C 0] assembled and inverted when prepared and reused by every
     ``solve`` until the next ``prepare`` (dense bodies only)."""
 
-    def __init__(self, body: Body, constraints: Constraints, beta_p: float) -> None:
-        self.c = constraints
+    def __init__(self, body: Any, constraints: Constraints, beta_p: float) -> None:
+        self.c, self.frame = constraints, body.frame
         self.inertia = beta_p * np.asarray(body.mass)
         self.n = body.dofs
 
@@ -168,6 +171,6 @@ class TangentKKT:
 
     def solve(self, r_l: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(Δq, Δλ) for the residuals r_l = Tᵀ r (in the frame R of ``prepare``) and g."""
-        r = r_l.reshape(-1, 3).dot(self.R.T).ravel()
+        r = self.frame.to_global(r_l, self.R)
         sol = -self.kkt_inverse.dot(np.concatenate([r, g]))
         return sol[:self.n], sol[self.n:]

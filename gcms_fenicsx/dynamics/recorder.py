@@ -71,12 +71,14 @@ def recorded_rows(steps: int, every: int) -> int:
     return steps // every + 1 + (1 if steps % every else 0)
 
 
-def record_plan(body: Body, constraints: Constraints, scene: Scene) -> RecordPlan:
-    """The plan of what ``scene`` records on ``body`` with ``constraints``."""
+def record_plan(body: Body, constraints: Constraints, scene: Scene,
+                dofs: int | None = None) -> RecordPlan:
+    """The plan of what ``scene`` records on ``body`` with ``constraints``, in ``dofs``
+    coordinates (default: the body's)."""
     out, steps = scene.outputs, scene.steps
     layout = series_layout(out.groups, out.energy,
                            constraints.count if out.constraint_forces else 0,
-                           body.dofs if out.coordinates else 0)
+                           (dofs or body.dofs) if out.coordinates else 0)
     rows = recorded_rows(steps, out.every)
     snapshots = frozenset(min(steps, int(round(t / scene.time_step_s))) for t in out.field_times)
     return RecordPlan(layout=layout, steps=steps, rows=rows, snapshot_steps=snapshots,
@@ -135,14 +137,20 @@ class Recorder:
     once when it is handed on (:meth:`flush`). A block holds ``plan.block_rows`` rows, fewer
     where the raw rows of a large body would exceed ``BLOCK_BYTES``
     (docs/integrator_profile.md).
+
+    ``lift``: B when the run's coordinates are p with q = B p (the rotor basis): the rows
+    hold p (``coordinates/q`` records p), and the series of ``body`` (the full basis) are taken
+    at B p.
     """
 
     def __init__(self, body: Body, constraints: Constraints, forces: ExternalForces,
-                 outputs: Outputs, plan: RecordPlan, time_step_s: float, sink: Sink) -> None:
+                 outputs: Outputs, plan: RecordPlan, time_step_s: float, sink: Sink,
+                 lift: np.ndarray | None = None) -> None:
         self.body, self.c, self.forces, self.out = body, constraints, forces, outputs
-        self.plan, self.sink = plan, sink
+        self.plan, self.sink, self.lift = plan, sink, lift
         self.h = time_step_s
-        n, m = body.dofs, (constraints.count if outputs.constraint_forces else 0)
+        n = body.dofs if lift is None else lift.shape[1]
+        m = constraints.count if outputs.constraint_forces else 0
         rows = max(1, min(plan.block_rows, BLOCK_BYTES // (8 * (2 * n + m + 6))))
         self.qv = np.zeros((rows, 2, n))
         self.multipliers = np.zeros((rows, m))
@@ -173,7 +181,8 @@ class Recorder:
                 w[2] += half_h * (before[2] + power[2])
             self._power = power
         if index in self.plan.snapshot_steps:
-            self.sink.snapshot(s.t, self.body.displacement(s.q))
+            q = s.q if self.lift is None else self.lift.dot(s.q)
+            self.sink.snapshot(s.t, self.body.displacement(q))
         if last or index % self.out.every == 0:
             self.record(s, info)
 
@@ -197,8 +206,9 @@ class Recorder:
         if not k:
             return
         body, out = self.body, self.out
-        Q = self.qv[:k, 0].reshape(k, -1, 3)
-        V = self.qv[:k, 1].reshape(k, -1, 3)
+        qv = self.qv[:k] if self.lift is None else self.qv[:k].dot(self.lift.T)
+        Q = qv[:, 0].reshape(k, -1, 3)
+        V = qv[:, 1].reshape(k, -1, 3)
         scalars = np.array(self.scalars, dtype=float)
         self.scalars = []
         block = {"time": scalars[:, 0].copy(),

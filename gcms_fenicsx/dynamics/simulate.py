@@ -18,7 +18,7 @@ import time
 from dataclasses import asdict, dataclass
 from functools import partial
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
 
 import h5py
 import numpy as np
@@ -41,6 +41,8 @@ from gcms_fenicsx.dynamics.recorder import Extremes, Recorder, RecordPlan, recor
 from gcms_fenicsx.dynamics.results import (MemorySink, ResultsWriter, RunInfo, Sink,
                                            Trajectory)
 from gcms_fenicsx.dynamics.rotation import InvertedBodyError
+from gcms_fenicsx.dynamics.rotor import RotorBody
+from gcms_fenicsx.dynamics.run_basis import in_basis, rotor_start, rotor_summary
 from gcms_fenicsx.dynamics.scene import Scene, SceneError
 from gcms_fenicsx.dynamics.svk import CoefficientsError, SVKLaw, svk_state
 from gcms_fenicsx.files.outputs import atomic_file, finite_json
@@ -64,7 +66,8 @@ def modal_history(body: Body, q: np.ndarray, mode: int) -> np.ndarray:
     return np.array([w @ (elastic_state(body, qk).local.ravel() - body.q0) for qk in q])
 
 
-def simulate_body(body: Body, scene: Scene, *, factorize: Factorize = dense_factorization,
+def simulate_body(body: Body | RotorBody, scene: Scene, *,
+                  factorize: Factorize = dense_factorization,
                   elastic: Elastic | None = None, progress: Progress = quiet,
                   model_hash: str = "") -> tuple[Trajectory, dict]:
     """Run ``scene`` on ``body``: the recorded trajectory (in memory) and the summary
@@ -72,8 +75,10 @@ def simulate_body(body: Body, scene: Scene, *, factorize: Factorize = dense_fact
     :class:`~gcms_fenicsx.dynamics.integrator.GeneralizedAlpha`; ``elastic`` is given exactly
     when the scene's ``elasticity`` is not the co-rotated law (SceneError otherwise), so the
     summary names the law that ran."""
+    nodes = _full(body).nodes_m
+
     def open_sink(plan: RecordPlan) -> Sink:
-        return MemorySink(plan.layout, plan.rows, body.nodes_m if plan.snapshot_steps else None)
+        return MemorySink(plan.layout, plan.rows, nodes if plan.snapshot_steps else None)
 
     summary, traj = _run(body, scene, open_sink, memory_capacity(), factorize=factorize,
                          elastic=elastic, progress=progress, model_hash=model_hash)
@@ -99,26 +104,31 @@ def elastic_law(model: ReducedModel, body: Body, scene: Scene) -> Elastic | None
     return partial(svk_state, body, law)
 
 
-def simulate(model: ReducedModel, scene: Scene,
-             progress: Progress = quiet) -> tuple[Trajectory, dict]:
-    """Run ``scene`` on an exported reduced model, keeping the results in memory."""
-    body = body_from_reduced(model)
-    return simulate_body(body, scene, elastic=elastic_law(model, body, scene),
-                         progress=progress, model_hash=model.input_hash)
-
-
-def simulate_to_file(model: ReducedModel, scene: Scene, path: Path,
-                     progress: Progress = quiet) -> dict:
-    """Run ``scene`` on an exported reduced model, streaming the results into ``path``
-    (a temporary file beside it, renamed when the run ends, complete or not); the summary."""
+def simulate(model: ReducedModel, scene: Scene, progress: Progress = quiet, basis: str = "full",
+             attachment: tuple[Any, ...] = ()) -> tuple[Trajectory, dict]:
+    """Run ``scene`` on an exported reduced model, keeping the results in memory; ``basis``
+    and ``attachment`` as in ``run_basis.in_basis``."""
     body = body_from_reduced(model)
     elastic = elastic_law(model, body, scene)
+    run_body = in_basis(model, body, scene, basis, attachment, progress)
+    return simulate_body(run_body, scene, elastic=elastic, progress=progress,
+                         model_hash=model.input_hash)
+
+
+def simulate_to_file(model: ReducedModel, scene: Scene, path: Path, progress: Progress = quiet,
+                     basis: str = "full", attachment: tuple[Any, ...] = ()) -> dict:
+    """Run ``scene`` on an exported reduced model, streaming the results into ``path``
+    (a temporary file beside it, renamed when the run ends, complete or not); the summary.
+    ``basis`` and ``attachment`` as in ``run_basis.in_basis``."""
+    body = body_from_reduced(model)
+    elastic = elastic_law(model, body, scene)
+    run_body = in_basis(model, body, scene, basis, attachment, progress)
     with atomic_file(path) as tmp, h5py.File(tmp, "w") as f:
         def open_sink(plan: RecordPlan) -> Sink:
             return ResultsWriter(f, plan.layout, plan.block_rows,
                                  body.nodes_m if plan.snapshot_steps else None)
 
-        summary, _ = _run(body, scene, open_sink, disk_capacity(tmp.parent),
+        summary, _ = _run(run_body, scene, open_sink, disk_capacity(tmp.parent),
                           factorize=dense_factorization, elastic=elastic, progress=progress,
                           model_hash=model.input_hash)
     return summary
@@ -152,12 +162,18 @@ class Stepped:
     info: StepInfo
 
 
-def _run(body: Body, scene: Scene, open_sink: OpenSink, capacity: Capacity, *,
+def _full(body: Body | RotorBody) -> Body:
+    """The body in the full basis: itself, or the one a rotor body's coordinates map into."""
+    return body.full if isinstance(body, RotorBody) else body
+
+
+def _run(body: Body | RotorBody, scene: Scene, open_sink: OpenSink, capacity: Capacity, *,
          factorize: Factorize, elastic: Elastic | None, progress: Progress,
          model_hash: str) -> tuple[dict, Trajectory | None]:
     """Set up, step, record into the sink ``open_sink`` gives: the summary and what the sink
     returns when closed."""
-    scene.check_groups(body.groups)
+    full = _full(body)
+    scene.check_groups(full.groups)
     if (elastic is None) != (scene.elasticity == "corotated"):
         raise SceneError(f'[scene] elasticity = "{scene.elasticity}" '
                          + ("needs its law's forces (simulate a reduced model that has its "
@@ -166,8 +182,9 @@ def _run(body: Body, scene: Scene, open_sink: OpenSink, capacity: Capacity, *,
     t_setup = time.perf_counter()
     run = prepare_run(body, scene, capacity, factorize, elastic, progress)
     sink = open_sink(run.plan)
-    recorder = Recorder(body, run.constraints, run.forces, scene.outputs, run.plan,
-                        scene.time_step_s, sink)
+    recorder = Recorder(full, run.constraints, run.forces, scene.outputs, run.plan,
+                        scene.time_step_s, sink,
+                        body.coordinates if isinstance(body, RotorBody) else None)
     recorder.step(0, run.state, run.info)
     setup_s = time.perf_counter() - t_setup
     stepped = _march(run, recorder, scene, progress)
@@ -180,14 +197,18 @@ def _run(body: Body, scene: Scene, open_sink: OpenSink, capacity: Capacity, *,
     return _summary(body, scene, run, stepped, recorder.extremes, setup_s, model_hash), traj
 
 
-def prepare_run(body: Body, scene: Scene, capacity: Capacity,
+def prepare_run(body: Body | RotorBody, scene: Scene, capacity: Capacity,
                 factorize: Factorize = dense_factorization, elastic: Elastic | None = None,
                 progress: Progress = quiet) -> Prepared:
     """Initial coordinates, Mr⁻¹, the independent joint rows, the results' budget (refused
-    before anything is allocated if over ``capacity``), the stepper and the initial state."""
+    before anything is allocated if over ``capacity``), the stepper and the initial state.
+    A rotor body starts from the rotor coordinates nearest the full basis's initial state
+    (its velocity: nearest in kinetic energy; the rest is removed as the joints remove it)."""
     for warning in scene.warnings():
         progress(f"warning: {warning}")
-    q = initial_coordinates(body, scene.initial)
+    full = _full(body)
+    q_full = initial_coordinates(full, scene.initial)
+    q = rotor_start(body, q_full, scene) if isinstance(body, RotorBody) else q_full
     if elastic is not None and scene.initial.mode is not None:
         warning = nonlinear_start(body, elastic, q, scene)
         if warning:
@@ -197,18 +218,25 @@ def prepare_run(body: Body, scene: Scene, capacity: Capacity,
     if constraints.dropped:
         progress(f"joints: {len(constraints.dropped)} constraint rows dropped, implied by the "
                  f"rows of earlier joints: {_rows_text(constraints)}")
-    plan = record_plan(body, constraints, scene)
+    plan = record_plan(full, constraints, scene, body.dofs)
     check_capacity(plan, capacity, scene)
     progress(f"simulate: {plan.steps} steps of {scene.time_step_s:g} s, {body.dofs} "
              f"coordinates, {constraints.count} constraint rows; {plan.rows} recorded rows and "
              f"{len(plan.snapshot_steps)} field snapshots, {format_bytes(plan.total_bytes)} "
              f"(limit {format_bytes(capacity.bytes)} {capacity.what})")
-    forces = external_forces(body, scene.gravity, scene.loads)
+    forces = external_forces(full, scene.gravity, scene.loads)
+    if isinstance(body, RotorBody):
+        B = body.coordinates
+        forces = ExternalForces(B.T @ forces.gravity_force, B.T @ forces.load_vectors,
+                                forces.loads)
     damping = RayleighDamping(scene.damping_alpha, scene.damping_beta)
     integrator = GeneralizedAlpha(body, constraints, forces, scene.time_step_s, scene.rho_inf,
                                   damping, scene.solver, factorize, elastic)
-    v_rigid = body.rigid_velocity(q, np.array(scene.initial.velocity),
+    v_rigid = full.rigid_velocity(q_full, np.array(scene.initial.velocity),
                                   np.array(scene.initial.angular_velocity))
+    kinetic_given = 0.5 * float(v_rigid @ (full.mass @ v_rigid))
+    if isinstance(body, RotorBody):
+        v_rigid = body.projector @ v_rigid
     v = consistent_velocity(body, constraints, mass_solve, 0.0, q, v_rigid)
     try:
         state, info = consistent_state(body, constraints, forces, integrator.elastic, damping,
@@ -218,7 +246,7 @@ def prepare_run(body: Body, scene: Scene, capacity: Capacity,
                          "amplitude") from exc
     return Prepared(constraints=constraints, plan=plan, forces=forces, integrator=integrator,
                     state=state, info=info,
-                    kinetic_given_j=0.5 * float(v_rigid @ (body.mass @ v_rigid)),
+                    kinetic_given_j=kinetic_given,
                     kinetic_kept_j=0.5 * float(v @ (body.mass @ v)))
 
 
@@ -275,8 +303,8 @@ def _march(run: Prepared, recorder: Recorder, scene: Scene, progress: Progress) 
                    state=state, info=info)
 
 
-def _summary(body: Body, scene: Scene, run: Prepared, stepped: Stepped, extremes: Extremes,
-             setup_s: float, model_hash: str) -> dict:
+def _summary(body: Body | RotorBody, scene: Scene, run: Prepared, stepped: Stepped,
+             extremes: Extremes, setup_s: float, model_hash: str) -> dict:
     """``summary.json``: finite numbers or None."""
     done, wall = stepped.steps, stepped.wall_s
     return finite_json({
@@ -300,6 +328,8 @@ def _summary(body: Body, scene: Scene, run: Prepared, stepped: Stepped, extremes
         "newton_iterations_max": extremes.iterations,
         "jacobian": scene.solver.jacobian,
         "elasticity": scene.elasticity,
+        "basis": "rotor" if isinstance(body, RotorBody) else "full",
+        "rotor_basis": rotor_summary(body) if isinstance(body, RotorBody) else None,
         "energy_drift_rel": extremes.energy_drift,
         "linear_momentum_change": extremes.momentum_change,
         "initial_kinetic_energy_j": run.kinetic_kept_j,

@@ -1,0 +1,173 @@
+"""The columns of the rotor basis (docs/design.md §7.1; the kinematics and the elastic law
+are ``rotor``'s, when a scene gets it ``config.basis.choose_basis``).
+
+For the axis a with (b1, b2) completing it to a right-handed orthonormal frame, every vector
+field w gives the columns A1 w (axial) and the pair A2 w, A3 w (in-plane) of q = B p
+(``rotor``, (R1)); the fields are the body's centred position X̃, its two tilts b_k × X̃, and
+the elastic (and attachment) modes a caller gives. Columns are pruned as the selection prunes
+fields: axial ones among themselves and pairs whole, since axial and in-plane columns are
+Mr-orthogonal and T(90°) turns a pair's columns into each other. NumPy only.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from gcms_fenicsx.dynamics.body import Body, elastic_modes
+from gcms_fenicsx.dynamics.rotation import skew
+from gcms_fenicsx.dynamics.scene import SceneError
+
+#: A candidate column is kept when its part independent of the columns kept before it has at
+#: least this fraction of its Mr-norm (the selection's svd_tolerance, docs/design.md §4).
+RELATIVE_RESIDUAL = 1e-6
+
+
+@dataclass(frozen=True)
+class RotorBasis:
+    """The columns of B (n × np, q = B p) and what they are, in the order of p: ``pairs``
+    in-plane pairs ((t1, t2), (cos φ, sin φ), then (ξ, ζ) of the kept fields), then the axial
+    coordinates (t_a, κ, then η of the kept fields). ``dropped``: the fields whose axial or
+    in-plane columns depend on the kept ones, with their relative residuals."""
+
+    axis: np.ndarray
+    plane: np.ndarray
+    coordinates: np.ndarray
+    pairs: int
+    names: tuple[str, ...]
+    rest: np.ndarray       # p0: B p0 = q0
+    dropped: tuple[dict, ...]
+
+    @property
+    def dofs(self) -> int:
+        return self.coordinates.shape[1]
+
+    @property
+    def translation(self) -> tuple[int, int, int]:
+        """The indices of t along a, b1 and b2."""
+        return 2 * self.pairs, 0, 1
+
+
+def axis_frame(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(a, [b1 b2]) with (a, b1, b2) right-handed and orthonormal, a = axis / |axis|."""
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    helper = np.eye(3)[int(np.argmin(np.abs(a)))]
+    b1 = np.cross(a, helper)
+    b1 /= np.linalg.norm(b1)
+    return a, np.column_stack((b1, np.cross(a, b1)))
+
+
+def rotor_basis(body: Body, axis: np.ndarray, fields: np.ndarray,
+                tolerance: float = RELATIVE_RESIDUAL) -> RotorBasis:
+    """B of (R1) for the vector fields ``fields`` (n × k, each a q of the full basis: an
+    elastic mode's or an attachment mode's coordinates), pruned (module docstring).
+
+    Besides X̃ the fields include the two tilts b_k × X̃: the joints hold them, and without
+    them a moment about an axis ⊥ a would be resisted by the stiffness of turned mode
+    columns instead of by the joints (their pairs span one plane, so one pair is dropped:
+    4 columns, the rotations about b1 and b2 and the shears that go with them).
+
+    Columns are compared in the Mr-norm: with Mr = L Lᵀ they are mapped to Lᵀ b and their
+    part independent of the kept ones is measured (a QR of the kept ones, applied twice); a
+    field's axial column and its pair are kept or dropped separately (t, κ and (cos φ, sin φ)
+    always stay).
+    """
+    a, plane = axis_frame(axis)
+    A = (np.outer(a, a), np.eye(3) - np.outer(a, a), skew(a))
+    nf = body.field_count
+    L = np.linalg.cholesky(np.asarray(body.mass))
+
+    def turned(q: np.ndarray, k: int) -> np.ndarray:
+        return q.reshape(nf, 3).dot(A[k].T).ravel()
+
+    center = body.center_of_mass(body.q0)
+    centred = body.q0.reshape(nf, 3) - np.outer(body.unit, center)
+    tilts = [("tilt_b1", (centred @ skew(plane[:, 0]).T).ravel()),
+             ("tilt_b2", (centred @ skew(plane[:, 1]).T).ravel())]
+    shapes = ([("X", centred.ravel())] + tilts
+              + [(f"w{j + 1}", fields[:, j]) for j in range(fields.shape[1])])
+    translation = [np.kron(body.unit, d) for d in (a, *plane.T)]
+    axial_cols, axial_names = [translation[0]], ["t_a"]
+    pair_cols, pair_names = [translation[1:]], [("t_1", "t_2")]
+    kept_axial, kept_pairs = [L.T.dot(translation[0])], [L.T.dot(v) for v in translation[1:]]
+    dropped: list[dict] = []
+    for name, w in shapes:
+        rigid = name == "X"
+        col = turned(w, 0)
+        residual = _residual(L.T.dot(col), kept_axial)
+        if rigid or residual > tolerance:
+            axial_cols.append(col)
+            axial_names.append("kappa" if rigid else f"eta_{name}")
+            kept_axial.append(L.T.dot(col))
+        else:
+            dropped.append({"field": name, "column": "axial", "relative_residual": residual})
+        pair = [turned(w, 1), turned(w, 2)]
+        residual = _residual(L.T.dot(pair[0]), kept_pairs)
+        if rigid or residual > tolerance:
+            pair_cols.append(pair)
+            pair_names.append(("cos", "sin") if rigid else (f"xi_{name}", f"zeta_{name}"))
+            kept_pairs += [L.T.dot(v) for v in pair]
+        else:
+            dropped.append({"field": name, "column": "in-plane", "relative_residual": residual})
+    B = np.column_stack([v for pair in pair_cols for v in pair] + axial_cols)
+    k = len(pair_cols)
+    rest = np.zeros(B.shape[1])
+    rest[[2 * k, 0, 1]] = a @ center, plane[:, 0] @ center, plane[:, 1] @ center
+    rest[2] = rest[2 * k + 1] = 1.0                       # cos φ = κ = 1
+    names = tuple(n for pair in pair_names for n in pair) + tuple(axial_names)
+    return RotorBasis(axis=a, plane=plane, coordinates=B, pairs=k, names=names, rest=rest,
+                      dropped=tuple(dropped))
+
+
+def _residual(y: np.ndarray, kept: list[np.ndarray]) -> float:
+    """|y − its projection on span(kept)| / |y|."""
+    norm = float(np.linalg.norm(y))
+    if norm == 0.0:
+        return 0.0
+    Qk, _ = np.linalg.qr(np.column_stack(kept))
+    r = y - Qk @ (Qk.T @ y)
+    r -= Qk @ (Qk.T @ r)
+    return float(np.linalg.norm(r)) / norm
+
+
+def mode_fields(body: Body, count: int) -> np.ndarray:
+    """The lowest ``count`` elastic modes of (Kr, Mr) as fields (n × count): the free-free
+    modes the reduced model was built from (Rayleigh–Ritz reproduces them, ``reduce``)."""
+    _, psi = elastic_modes(body)
+    return psi[:, 6:6 + count]
+
+
+def attachment_fields(body: Body, loads: np.ndarray, modes: np.ndarray) -> np.ndarray:
+    """Attachment modes in the full basis (n × k) for generalized unit loads (n × k): the
+    static responses with inertia relief, u = Σ_elastic ψ ψᵀ f / λ over every elastic mode of
+    (Kr, Mr) (the Galerkin solution of K u = P f in span Φ, docs/design.md §3.7),
+    Mr-orthogonalised against ``modes`` and scaled to unit Mr-norm, as the modes are."""
+    lam, psi = elastic_modes(body)
+    U = (psi[:, 6:] / lam[6:]) @ (psi[:, 6:].T @ loads)
+    U -= modes @ (modes.T @ (body.mass @ U))
+    norms = np.sqrt(np.einsum("ij,ij->j", U, body.mass @ U))
+    return U / np.where(norms > 0, norms, 1.0)
+
+
+def generalized_loads(body: Body, loads: Any) -> np.ndarray:
+    """Generalized forces (n × k) of attachment unit loads (``config.basis.AttachmentLoad``):
+    a force F at a group's mean position is kron(h, F); a moment about c is the force conjugate
+    to the group's small rotation about c, kron(H_G d, c × d) for a lever d ⊥ c in the group's
+    span (``joints``)."""
+    cols = []
+    for load in loads:
+        g = body.groups[load.group]
+        direction = np.asarray(load.direction, float)
+        if load.kind == "force":
+            cols.append(np.kron(g.position, direction))
+            continue
+        perp = g.span - np.outer(direction, direction @ g.span)
+        lengths = np.linalg.norm(perp, axis=0)
+        if not lengths.size or lengths.max() < 1e-3:
+            raise SceneError(f"[basis] attachment: group {load.group!r} cannot take a moment "
+                             f"about {direction.tolist()}: its nodes do not extend "
+                             "perpendicular to it")
+        d = perp[:, int(np.argmax(lengths))] / lengths.max()
+        cols.append(np.kron(g.affine @ d, np.cross(direction, d)))
+    return np.column_stack(cols) if cols else np.zeros((body.dofs, 0))

@@ -1,0 +1,128 @@
+"""The rotor basis against the full one on the default crankshaft scene: coordinates, steps
+per second (the ratio in the same run is the figure to read) and how far the outputs of the
+two bases are apart, beside how far each is from itself at half the time step.
+
+For Nm = 5, 10 and 20 the default study's reduced model is built once (mesh to reduced
+model, ``pipeline``) and the built-in scene runs in both bases, alternating, ``--repeat``
+times each (best time kept); then the same with stiffness-proportional damping β = 1e-4 s,
+whose outputs the 50 µs step resolves. The outputs are the nose's whirl, the bearing forces
+and the drive torque (``auto_modes.outputs``), compared as the flexible pendulum compares
+its tip: max_t |y − y_ref| / max_t |y_ref|.
+
+    python workflows/bench_rotor.py [--out docs/bench_rotor] [--repeat 3]
+
+writes OUT.json and prints the table recorded in README.md. One BLAS thread.
+"""
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before NumPy
+
+import argparse
+import json
+import logging
+import sys
+import tempfile
+import tomllib
+from dataclasses import replace
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+from auto_modes import errors, outputs  # noqa: E402
+
+MODE_COUNTS = (5, 10, 20)
+DAMPED_BETA_S = 1e-4
+
+
+def log(message: str) -> None:
+    print(message, file=sys.stderr, flush=True)
+
+
+def run(model, scene, basis: str, repeat: int) -> tuple[dict, dict]:
+    """(outputs, summary of the fastest of ``repeat`` runs) of ``scene`` in ``basis``."""
+    from gcms_fenicsx.dynamics.simulate import simulate
+
+    best = None
+    for _ in range(repeat):
+        traj, summary = simulate(model, scene, basis=basis)
+        if not summary["complete"]:
+            raise SystemExit(f"{basis} basis: {summary['message']}")
+        if best is None or summary["wall_time_s"] < best[1]["wall_time_s"]:
+            best = (outputs(traj), summary)
+    assert best is not None
+    return best
+
+
+def case(model, scene, repeat: int) -> dict:
+    """Both bases on ``scene`` (alternating), and both at half the step."""
+    half = replace(scene, time_step_s=scene.time_step_s / 2)
+    out, summaries = {}, {}
+    for _ in range(repeat):
+        for basis in ("full", "rotor"):
+            o, s = run(model, scene, basis, 1)
+            if basis not in summaries or s["wall_time_s"] < summaries[basis]["wall_time_s"]:
+                out[basis], summaries[basis] = o, s
+    halves = {basis: run(model, half, basis, 1)[0] for basis in ("full", "rotor")}
+    thinned = {b: {k: v[::2] for k, v in o.items()} for b, o in halves.items()}
+    full, rotor = summaries["full"], summaries["rotor"]
+    return {
+        "coordinates": {"full": full["reduced_dofs"], "rotor": rotor["reduced_dofs"]},
+        "steps_per_second": {"full": full["steps_per_second"],
+                             "rotor": rotor["steps_per_second"]},
+        "speedup": rotor["steps_per_second"] / full["steps_per_second"],
+        "rotor_vs_full": errors(out["rotor"], out["full"]),
+        "full_vs_half_step": errors(out["full"], thinned["full"]),
+        "rotor_vs_half_step": errors(out["rotor"], thinned["rotor"]),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=Path("docs/bench_rotor"))
+    parser.add_argument("--repeat", type=int, default=3)
+    args = parser.parse_args()
+    logging.disable(logging.INFO)
+    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.config.study import default_config_text, parse_config
+
+    raw = tomllib.loads(default_config_text())
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for nm in MODE_COUNTS:
+            cfg = parse_config(dict(raw, modes={"count": nm}))
+            chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes,
+                                       Path(tmp))
+            basis = pipeline.basis_stage(chain.assembly.model, chain.modes, chain.body)
+            model = pipeline.reduction_stage(basis, cfg.selection)
+            damped = replace(cfg.scene, damping_beta=DAMPED_BETA_S)
+            for name, scene in (("default", cfg.scene), (f"beta {DAMPED_BETA_S:g} s", damped)):
+                row = dict(modes=nm, scene=name, **case(model, scene, args.repeat))
+                rows.append(row)
+                log(json.dumps(row))
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.with_suffix(".json").write_text(json.dumps({"rows": rows}, indent=1))
+    print(table(rows))
+
+
+def table(rows: list[dict]) -> str:
+    lines = ["| scene | Nm | coordinates full → rotor | steps/s full | steps/s rotor | speedup | "
+             "rotor vs full (whirl, forces, torque) | full: h vs h/2 | rotor: h vs h/2 |",
+             "|---|---|---|---|---|---|---|---|---|"]
+
+    def three(e: dict) -> str:
+        return ", ".join(f"{100 * e[k]:.1f} %" for k in ("nose whirl", "bearing forces",
+                                                          "drive torque"))
+
+    for r in rows:
+        c, s = r["coordinates"], r["steps_per_second"]
+        lines.append(f"| {r['scene']} | {r['modes']} | {c['full']} → {c['rotor']} | "
+                     f"{s['full']:,.0f} | {s['rotor']:,.0f} | {r['speedup']:.2f}× | "
+                     f"{three(r['rotor_vs_full'])} | {three(r['full_vs_half_step'])} | "
+                     f"{three(r['rotor_vs_half_step'])} |")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    main()
