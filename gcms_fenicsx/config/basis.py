@@ -6,10 +6,10 @@ unit moment about every axis a joint holds the group's rotation about (two for a
 joint, three for a fixed one); ``"none"`` (default) adds none. :func:`attachment_loads`
 lists them for a scene.
 
-``kind`` is the basis the scene runs in (docs/design.md §7.1): ``"full"`` (nine columns per
-mode), ``"rotor"`` (three per mode, for joints that leave only rotation about one axis;
-refused naming the joints otherwise, when the study is read) or ``"auto"`` (default: the
-rotor basis when the joints allow it, else the full one; :func:`choose_basis`). It does not
+``kind`` is the basis the scene runs in (docs/design.md §7.1): ``"full"`` (default: nine
+columns per mode), ``"rotor"`` (three per mode, for joints that leave only rotation about one
+axis; refused naming the joints otherwise, when the study is read) or ``"auto"`` (the rotor
+basis when the joints allow it, else the full one; ``dynamics.basis_choice``). It does not
 change the reduced model: the rotor basis is made from it when the scene runs
 (``dynamics.run_basis``). No NumPy.
 """
@@ -20,12 +20,11 @@ from dataclasses import dataclass
 from typing import Any, Mapping
 
 from gcms_fenicsx.config.table import ConfigError, Table
-from gcms_fenicsx.dynamics.scene import Scene, SceneError
+from gcms_fenicsx.dynamics.scene import Scene
 
 ATTACHMENT = ("none", "scene")
 KINDS = ("auto", "full", "rotor")
-#: Joint axes whose sines of the angle between them are below this are one axis.
-PARALLEL = 1e-9
+
 AXES = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 
 
@@ -34,7 +33,7 @@ class BasisConfig:
     """The ``[basis]`` table."""
 
     attachment: str = "none"
-    kind: str = "auto"
+    kind: str = "full"
 
 
 @dataclass(frozen=True)
@@ -80,55 +79,6 @@ def attachment_loads(cfg: BasisConfig, scene: Scene | None) -> tuple[AttachmentL
             held = ()
         loads += [AttachmentLoad(joint.group, "moment", axis) for axis in held]
     return tuple(dict.fromkeys(loads))
-
-
-@dataclass(frozen=True)
-class BasisChoice:
-    """The basis a scene runs in: "full" or "rotor" (with its axis), and why."""
-
-    kind: str
-    axis: tuple[float, float, float] | None
-    reason: str
-
-
-def choose_basis(kind: str, scene: Scene) -> BasisChoice:
-    """``[basis] kind`` for a scene: "full"; "rotor" when its joints leave only rotation about
-    one axis (revolute joints, driven or not, on parallel axes), SceneError naming the joints
-    otherwise; "auto": the rotor basis when the joints allow it (and the elastic law is the
-    co-rotated one), else the full one."""
-    if kind == "full":
-        return BasisChoice("full", None, "[basis] kind = \"full\"")
-    problem = _rotor_problem(scene)
-    if problem is None:
-        axis = next(j.axis for j in scene.joints)
-        assert axis is not None
-        names = ", ".join(repr(j.name) for j in scene.joints)
-        return BasisChoice("rotor", axis, f"joints {names} leave only rotation about "
-                                          f"{[round(x, 6) for x in axis]}")
-    if kind == "rotor":
-        raise SceneError(f'[basis] kind = "rotor" needs joints that leave the body only rotation '
-                         f"about one axis (revolute joints on one axis, driven or not): {problem}")
-    return BasisChoice("full", None, problem)
-
-
-def _rotor_problem(scene: Scene) -> str | None:
-    """Why the rotor basis does not fit the scene, or None."""
-    if scene.elasticity != "corotated":
-        return f'elasticity = "{scene.elasticity}" runs in the full basis'
-    if not scene.joints:
-        return "the scene has no joints: the body is free to turn about every axis"
-    for j in scene.joints:
-        if j.type != "revolute":
-            return (f"joint {j.name!r} is {j.type}: " +
-                    ("it leaves rotation about every axis" if j.type == "spherical"
-                     else "it holds every rotation"))
-    first = scene.joints[0]
-    a = _unit(first.axis)
-    for j in scene.joints[1:]:
-        if math.sqrt(sum(x * x for x in _cross(a, _unit(j.axis)))) > PARALLEL:
-            return (f"joints {first.name!r} (axis {list(first.axis)}) and {j.name!r} (axis "
-                    f"{list(j.axis)}) turn about different axes")
-    return None
 
 
 def _perpendicular(e: tuple[float, float, float]) -> tuple[tuple[float, float, float], ...]:

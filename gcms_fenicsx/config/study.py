@@ -23,8 +23,8 @@ from gcms_fenicsx.config.geometry import parse_geometry, parse_mesh
 from gcms_fenicsx.dynamics.scene import Scene, parse_scene
 from gcms_fenicsx.config.material import Material, parse_material
 from gcms_fenicsx.config.modes import ModesConfig, parse_modes
-from gcms_fenicsx.config.basis import (BasisConfig, attachment_loads, choose_basis,
-                                       parse_basis)
+from gcms_fenicsx.config.basis import BasisConfig, attachment_loads, parse_basis
+from gcms_fenicsx.dynamics.basis_choice import choose_basis
 from gcms_fenicsx.config.outputs import OutputsConfig, parse_outputs
 from gcms_fenicsx.config.scene_band import scene_band
 from gcms_fenicsx.config.selection import SelectionConfig, parse_selection

@@ -127,15 +127,30 @@ class Constraints:
                                                                     + (1.0 - c) * along))
         return U
 
-    @cached_property
     def unit_rows(self) -> np.ndarray:
-        """c_k(e_l) (nv, 3, n): the row of vector k for the direction e_l, kron(v_k, e_l) (B)."""
+        """c_k(e_l) (nv, 3, n): the row of vector k for the direction e_l, kron(v_k, e_l) (times
+        B). Made when asked, except in subspace coordinates, whose rows every step needs."""
+        if self.coordinates is not None:
+            return self._subspace_rows
+        return self._kron_rows()
+
+    def _kron_rows(self) -> np.ndarray:
         nv, nf = self.vectors.shape
         rows = np.zeros((nv, 3, nf, 3))
         for l in range(3):
             rows[:, l, :, l] = self.vectors
-        rows = rows.reshape(nv, 3, 3 * nf)
-        return rows if self.coordinates is None else rows.dot(self.coordinates)
+        return rows.reshape(nv, 3, 3 * nf)
+
+    @cached_property
+    def _subspace_rows(self) -> np.ndarray:
+        """kron(v_k, e_l) B for every vector and direction, and the kept rows' (m, 3, n)."""
+        assert self.coordinates is not None
+        return self._kron_rows().dot(self.coordinates)
+
+    @cached_property
+    def _row_units(self) -> np.ndarray:
+        """The rows' own c(e_l) (m, 3, n), contiguous (subspace coordinates)."""
+        return np.ascontiguousarray(self._subspace_rows[self.index])
 
     def values(self, q: np.ndarray, U: np.ndarray) -> np.ndarray:
         """C q = [u_i · (Qᵀ v_{k_i})]_i for the directions U (without the targets); for q of
@@ -154,7 +169,7 @@ class Constraints:
     def jacobian(self, U: np.ndarray) -> np.ndarray:
         """C (m × n), dense: row i is kron(v_{k_i}, u_i) (times B)."""
         if self.coordinates is not None:
-            return np.einsum("il,ilj->ij", U, self.unit_rows[self.index])
+            return np.einsum("il,ilj->ij", U, self._row_units)
         return (self.row_vectors[:, :, None] * U[:, None, :]).reshape(self.count,
                                                                       3 * self.vectors.shape[1])
 

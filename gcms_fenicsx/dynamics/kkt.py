@@ -22,14 +22,16 @@ from gcms_fenicsx.dynamics.lapack import dot_into, inverse
 Solve = Callable[[np.ndarray], np.ndarray]
 #: (elastic state, X ↦ A X) ↦ (X_loc, Y_loc): the change-of-frame term of the co-rotated law
 #: in the body frame (``corotated.local_frame_update``, ``rotor.rotor_frame_update``).
-FrameUpdate = Callable[[Any, Callable[[np.ndarray], np.ndarray]], tuple[np.ndarray, np.ndarray]]
+Operator = Callable[[np.ndarray], np.ndarray]
+FrameUpdate = Callable[[Any, Operator], tuple[np.ndarray, np.ndarray]]
 
 
 class BorderedKKT:
     """Newton corrections for S = T S₀ Tᵀ (+ X Y) bordered by the constraints, in the body frame.
 
-    With T = I ⊗ R (``body.frame``: for rotor coordinates, T(ψ)) fixed for the step, Δq = T Δq_l, r_l = Tᵀ r, C_l = C T (rows
-    kron(v_i, Rᵀu_i)), X = T X_loc and Y = Y_loc Tᵀ, the system is
+    With T = I ⊗ R (``body.frame``; T(ψ) in rotor coordinates) fixed for the step,
+    Δq = T Δq_l, r_l = Tᵀ r, C_l = C T (rows kron(v_i, Rᵀu_i)), X = T X_loc and
+    Y = Y_loc Tᵀ, the system is
     [S₀ + X_loc Y_loc, C_lᵀ; C_l, 0] [Δq_l; Δλ] = −[r_l; g]. With z = S₀⁻¹ r_l, the border
     B = S₀⁻¹ [C_lᵀ | X_loc] and G = [C_l; Y_loc] (Woodbury):
 
@@ -54,7 +56,8 @@ class BorderedKKT:
         n = body.dofs
         if m:
             nv = len(constraints.vectors)
-            Y = np.asarray(solve(constraints.unit_rows.reshape(3 * nv, n).T)).reshape(n, nv, 3)
+            rows = constraints.unit_rows().reshape(3 * nv, n)
+            Y = np.asarray(solve(rows.T)).reshape(n, nv, 3)
             self.YT = np.ascontiguousarray(Y[:, constraints.index, :].reshape(n, 3 * m).T)
             self.blocks = np.zeros((m, 3 * m))                   # row i: Rᵀu_i at columns 3i..
             self.diagonal = np.lib.stride_tricks.as_strided(

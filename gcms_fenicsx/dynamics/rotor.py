@@ -33,7 +33,8 @@ have no mass-weighted mean),
     Tᵀ ∂V/∂p = f − β s,  f = K̃ e,  c = P Ĵ p_l,  β = f · c,  s = w_s / ρ,       (R3)
 
 ρ = |(w_c · p, w_s · p)| and Ĵ the generator of T (pairs (x, y) ↦ (−y, x), axial ↦ 0).
-With J_l = I − c sᵀ (the change of p_l for a local change dp_l, dψ = s · dp_l) and
+With J_l = I − c sᵀ (the change of p_l for a local change dp_l, dψ = s · dp_l; exactly
+I − Ĵ p_l sᵀ, equal to it in every row but t's, which K̃ does not see) and
 d²ψ = −2 (w_c · x)(w_s · x) / ρ² in the local frame, the exact tangent is
 
     Tᵀ (∂²V/∂p²) T = K̃ − (a sᵀ + s aᵀ) + κ s sᵀ,                                (R4)
@@ -55,8 +56,8 @@ from gcms_fenicsx.dynamics.body import Body
 from gcms_fenicsx.dynamics.rotation import InvertedBodyError, skew
 from gcms_fenicsx.dynamics.rotor_basis import (RELATIVE_RESIDUAL, RotorBasis, rotor_basis)
 
-#: The in-plane affine map of a body that still has a frame keeps at least this fraction of
-#: its size at rest (ρ / ρ0).
+#: The in-plane affine map N of a body that still has a frame has det N above this fraction
+#: of ρ² (ρ = |(N11 + N22, N21 − N12)|; ρ² = 4 det N for a rotation).
 COLLAPSED = 1e-12
 
 
@@ -78,19 +79,22 @@ class RotorFrame:
     def to_local(self, y: np.ndarray, phase: complex) -> np.ndarray:
         """Tᵀ y."""
         out = y.copy()
-        out[:2 * self.pairs].view(np.complex128).__imul__(phase.conjugate())
+        pairs = out[:2 * self.pairs].view(np.complex128)
+        pairs *= phase.conjugate()
         return out
 
     def to_global(self, y: np.ndarray, phase: complex) -> np.ndarray:
         """T y."""
         out = y.copy()
-        out[:2 * self.pairs].view(np.complex128).__imul__(phase)
+        pairs = out[:2 * self.pairs].view(np.complex128)
+        pairs *= phase
         return out
 
     def back(self, z: np.ndarray, phase: complex) -> np.ndarray:
         """−T z (a Newton correction turned back to global coordinates)."""
         out = -z
-        out[:2 * self.pairs].view(np.complex128).__imul__(phase)
+        pairs = out[:2 * self.pairs].view(np.complex128)
+        pairs *= phase
         return out
 
     def residual(self, y: np.ndarray, gradient: np.ndarray, phase_state: complex,
@@ -102,8 +106,8 @@ class RotorFrame:
         return r
 
     def turn_rows(self, C: np.ndarray, phase: complex, out: np.ndarray) -> None:
-        """out = C T for the rows C (m × n): row pairs times e^{iψ} as row vectors, i.e. the
-        pair (x, y) ↦ (x cos ψ + y sin ψ, −x sin ψ + y cos ψ) = conj of the pair times e^{iψ}."""
+        """out = C T for the rows C (m × n): c · (T x) = ⟨c, e^{iψ} x⟩ on each pair, so the
+        row's pairs are multiplied by e^{−iψ}: (x, y) ↦ (x cos ψ + y sin ψ, −x sin ψ + y cos ψ)."""
         k = 2 * self.pairs
         out[:, k:] = C[:, k:]
         np.multiply(C[:, :k].view(np.complex128), phase.conjugate(),
@@ -147,6 +151,7 @@ class RotorBody:
     stiffness: np.ndarray     # K̃ = P Kp P
     q0: np.ndarray            # p0
     weights: np.ndarray       # (2, np): w_c, w_s
+    plane_map: np.ndarray     # (4, np): N11, N12, N21, N22 (N · p, row by row)
     turn: np.ndarray          # P Ĵ (np × np)
     frame: RotorFrame
 
@@ -177,20 +182,20 @@ class RotorBody:
         return np.linalg.solve(self.mass, B.T @ np.asarray(self.full.mass))
 
     def project(self, q: np.ndarray) -> tuple[np.ndarray, float]:
-        """(p, relative residual |q − B p|_Mr / |q|_Mr) for the p nearest q."""
+        """(p, |q − B p|_Mr / |q − q0|_Mr) for the p nearest q (q0 = B p0 is in the basis, so
+        the residual is the deformation's, whatever the body's place and size)."""
         p = self.projector @ q
         d = q - self.coordinates @ p
+        u = q - self.full.q0
         Mr = self.full.mass
-        norm = math.sqrt(max(float(q @ (Mr @ q)), 0.0))
+        norm = math.sqrt(max(float(u @ (Mr @ u)), 0.0))
         return p, (math.sqrt(max(float(d @ (Mr @ d)), 0.0)) / norm if norm > 0 else 0.0)
 
     def rigid_velocities(self, p: np.ndarray) -> np.ndarray:
-        """The rigid velocities the rotor basis has at p (np × 4): translations along a, b1,
-        b2 and the rotation about a through the centre of mass (P Ĵ p)."""
-        out = np.zeros((self.dofs, 4))
-        out[list(self.basis.translation), [0, 1, 2]] = 1.0
-        out[:, 3] = self.turn.dot(p)
-        return out
+        """The six rigid velocities of the full basis at B p, nearest in p (np × 6): the
+        translations, the rotation about a and the two tilts are in the rotor basis (the
+        tilt fields), so they are exact."""
+        return self.projector @ self.full.rigid_velocities(self.coordinates @ p)
 
     def damping_force(self, operator: np.ndarray) -> RotorDamping:
         """The damping force of D₀ = ``operator`` (α Mp + β K̃) on the deformation rate."""
@@ -214,14 +219,15 @@ def rotor_body(body: Body, axis: np.ndarray, fields: np.ndarray,
     Kp = B.T @ np.asarray(body.stiffness @ B)
     K = _without_translation(0.5 * (Kp + Kp.T), basis.translation)
     nf = body.field_count
-    A = [(B[:, j].reshape(nf, 3).T @ body.affine) for j in range(B.shape[1])]
-    b1, b2 = basis.plane.T
-    w = np.array([[b1 @ Aj @ b1 + b2 @ Aj @ b2, b2 @ Aj @ b1 - b1 @ Aj @ b2] for Aj in A]).T
+    E2 = basis.plane
+    N = np.array([(E2.T @ B[:, j].reshape(nf, 3).T @ body.affine @ E2).ravel()
+                  for j in range(B.shape[1])]).T                       # (4, np)
+    w = np.array([N[0] + N[3], N[2] - N[1]])
     frame = RotorFrame(pairs=basis.pairs, axis=basis.axis, plane=basis.plane)
     turn = np.column_stack([frame.generator(e) for e in np.eye(B.shape[1])])
     turn[list(basis.translation), :] = 0.0
     return RotorBody(full=body, basis=basis, mass=0.5 * (Mp + Mp.T), stiffness=K,
-                     q0=basis.rest.copy(), weights=w, turn=turn, frame=frame)
+                     q0=basis.rest.copy(), weights=w, plane_map=N, turn=turn, frame=frame)
 
 
 class RotorState(NamedTuple):
@@ -249,12 +255,15 @@ class RotorState(NamedTuple):
 
 
 def rotor_state(rotor: RotorBody, p: np.ndarray) -> RotorState:
-    """(R2)–(R3) at p; InvertedBodyError when the in-plane affine map has collapsed. The
-    integrator's hot path: a few products with constant matrices."""
-    X, Y = rotor.weights.dot(p).tolist()
+    """(R2)–(R3) at p; InvertedBodyError when the in-plane affine map N is inverted or has
+    collapsed (det N ≤ 0: no rotation about a can be taken from it). The integrator's hot
+    path: a few products with constant matrices."""
+    n11, n12, n21, n22 = rotor.plane_map.dot(p).tolist()
+    X, Y = n11 + n22, n21 - n12
     rho = math.hypot(X, Y)
-    if not rho > COLLAPSED * 2.0:
-        raise InvertedBodyError(0.0, np.array([rho, rho, 0.0]))
+    if not n11 * n22 - n12 * n21 > COLLAPSED * rho * rho:
+        N = np.array([[n11, n12], [n21, n22]])
+        raise InvertedBodyError(np.linalg.det(N), np.linalg.svd(N, compute_uv=False))
     phase = complex(X / rho, Y / rho)
     local = rotor.frame.to_local(p, phase)
     e = local - rotor.q0

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from gcms_fenicsx.dynamics.body import Body, elastic_modes
+from gcms_fenicsx.dynamics.body import Body
 from gcms_fenicsx.dynamics.rotation import skew
 from gcms_fenicsx.dynamics.scene import SceneError
 
@@ -38,6 +38,7 @@ class RotorBasis:
     names: tuple[str, ...]
     rest: np.ndarray       # p0: B p0 = q0
     dropped: tuple[dict, ...]
+    fields: int            # the vector fields its columns came from (X̃ and the tilts too)
 
     @property
     def dofs(self) -> int:
@@ -68,10 +69,10 @@ def rotor_basis(body: Body, axis: np.ndarray, fields: np.ndarray,
     columns instead of by the joints (their pairs span one plane, so one pair is dropped:
     4 columns, the rotations about b1 and b2 and the shears that go with them).
 
-    Columns are compared in the Mr-norm: with Mr = L Lᵀ they are mapped to Lᵀ b and their
-    part independent of the kept ones is measured (a QR of the kept ones, applied twice); a
-    field's axial column and its pair are kept or dropped separately (t, κ and (cos φ, sin φ)
-    always stay).
+    Columns are compared in the Mr-norm: with Mr = L Lᵀ they are mapped to Lᵀ b, and their
+    part independent of the kept ones (a QR of the kept ones, applied twice) is measured
+    against the field's own norm; a field's axial column and its pair are kept or dropped
+    separately (t, κ and (cos φ, sin φ) always stay).
     """
     a, plane = axis_frame(axis)
     A = (np.outer(a, a), np.eye(3) - np.outer(a, a), skew(a))
@@ -94,8 +95,9 @@ def rotor_basis(body: Body, axis: np.ndarray, fields: np.ndarray,
     dropped: list[dict] = []
     for name, w in shapes:
         rigid = name == "X"
+        size = float(np.linalg.norm(L.T.dot(w)))
         col = turned(w, 0)
-        residual = _residual(L.T.dot(col), kept_axial)
+        residual = _residual(L.T.dot(col), kept_axial, size)
         if rigid or residual > tolerance:
             axial_cols.append(col)
             axial_names.append("kappa" if rigid else f"eta_{name}")
@@ -103,7 +105,7 @@ def rotor_basis(body: Body, axis: np.ndarray, fields: np.ndarray,
         else:
             dropped.append({"field": name, "column": "axial", "relative_residual": residual})
         pair = [turned(w, 1), turned(w, 2)]
-        residual = _residual(L.T.dot(pair[0]), kept_pairs)
+        residual = _residual(L.T.dot(pair[0]), kept_pairs, size)
         if rigid or residual > tolerance:
             pair_cols.append(pair)
             pair_names.append(("cos", "sin") if rigid else (f"xi_{name}", f"zeta_{name}"))
@@ -117,37 +119,44 @@ def rotor_basis(body: Body, axis: np.ndarray, fields: np.ndarray,
     rest[2] = rest[2 * k + 1] = 1.0                       # cos φ = κ = 1
     names = tuple(n for pair in pair_names for n in pair) + tuple(axial_names)
     return RotorBasis(axis=a, plane=plane, coordinates=B, pairs=k, names=names, rest=rest,
-                      dropped=tuple(dropped))
+                      dropped=tuple(dropped), fields=len(shapes))
 
 
-def _residual(y: np.ndarray, kept: list[np.ndarray]) -> float:
-    """|y − its projection on span(kept)| / |y|."""
-    norm = float(np.linalg.norm(y))
-    if norm == 0.0:
+def _residual(y: np.ndarray, kept: list[np.ndarray], size: float) -> float:
+    """|y − its projection on span(kept)| / ``size`` (the Mr-norm of the field y is a column
+    of: a column that is a field's round-off, the axial part of a torsion mode say, counts
+    as nothing)."""
+    if size == 0.0:
         return 0.0
     Qk, _ = np.linalg.qr(np.column_stack(kept))
     r = y - Qk @ (Qk.T @ y)
     r -= Qk @ (Qk.T @ r)
-    return float(np.linalg.norm(r)) / norm
+    return float(np.linalg.norm(r)) / size
 
 
-def mode_fields(body: Body, count: int) -> np.ndarray:
-    """The lowest ``count`` elastic modes of (Kr, Mr) as fields (n × count): the free-free
-    modes the reduced model was built from (Rayleigh–Ritz reproduces them, ``reduce``)."""
-    _, psi = elastic_modes(body)
-    return psi[:, 6:6 + count]
+def mode_fields(modes: np.ndarray, count: int) -> np.ndarray:
+    """The lowest ``count`` elastic modes as fields (n × count), from the Mr-orthonormal
+    eigenvectors of (Kr, Mr), rigid first (``body.elastic_modes``): the free-free modes the
+    reduced model was built from (Rayleigh–Ritz reproduces them, ``reduce``)."""
+    return modes[:, 6:6 + count]
 
 
-def attachment_fields(body: Body, loads: np.ndarray, modes: np.ndarray) -> np.ndarray:
-    """Attachment modes in the full basis (n × k) for generalized unit loads (n × k): the
+def attachment_fields(body: Body, loads: np.ndarray, eigenvalues: np.ndarray,
+                      modes: np.ndarray, fields: np.ndarray,
+                      tolerance: float = RELATIVE_RESIDUAL) -> np.ndarray:
+    """Attachment modes in the full basis (n × k ≤ loads) for generalized unit loads: the
     static responses with inertia relief, u = Σ_elastic ψ ψᵀ f / λ over every elastic mode of
-    (Kr, Mr) (the Galerkin solution of K u = P f in span Φ, docs/design.md §3.7),
-    Mr-orthogonalised against ``modes`` and scaled to unit Mr-norm, as the modes are."""
-    lam, psi = elastic_modes(body)
-    U = (psi[:, 6:] / lam[6:]) @ (psi[:, 6:].T @ loads)
-    U -= modes @ (modes.T @ (body.mass @ U))
-    norms = np.sqrt(np.einsum("ij,ij->j", U, body.mass @ U))
-    return U / np.where(norms > 0, norms, 1.0)
+    (Kr, Mr) (``eigenvalues``, ``modes``: the Galerkin solution of K u = P f in span Φ,
+    docs/design.md §3.7), Mr-orthogonalised against ``fields`` and scaled to unit Mr-norm, as
+    the modes are; a response whose part orthogonal to them is below ``tolerance`` of it
+    adds nothing and is left out."""
+    U = (modes[:, 6:] / eigenvalues[6:]) @ (modes[:, 6:].T @ loads)
+    Mr = body.mass
+    before = np.sqrt(np.einsum("ij,ij->j", U, Mr @ U))
+    U -= fields @ (fields.T @ (Mr @ U))
+    after = np.sqrt(np.einsum("ij,ij->j", U, Mr @ U))
+    keep = after > tolerance * before
+    return U[:, keep] / after[keep]
 
 
 def generalized_loads(body: Body, loads: Any) -> np.ndarray:

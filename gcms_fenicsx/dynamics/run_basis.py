@@ -1,6 +1,6 @@
 """The body a scene runs on: the full basis of a reduced model, or its rotor basis
-(``[basis] kind``, ``rotor_basis.choose_basis``), with the maps the run needs between the two
-(its initial state, its summary block). NumPy only.
+(``[basis] kind``, ``basis_choice.choose_basis``), and what a summary says about it.
+NumPy only.
 """
 from __future__ import annotations
 
@@ -8,7 +8,9 @@ from typing import Any
 
 import numpy as np
 
-from gcms_fenicsx.dynamics.body import Body
+from gcms_fenicsx.dynamics.basis_choice import choose_basis
+from gcms_fenicsx.dynamics.body import Body, elastic_modes
+from gcms_fenicsx.dynamics.initial import initial_coordinates
 from gcms_fenicsx.dynamics.rotor import RotorBody, rotor_body
 from gcms_fenicsx.dynamics.rotor_basis import attachment_fields, generalized_loads, mode_fields
 from gcms_fenicsx.dynamics.scene import Scene, SceneError
@@ -19,20 +21,32 @@ from gcms_fenicsx.runtime.progress import Progress, quiet
 def in_basis(model: ReducedModel, body: Body, scene: Scene, kind: str = "full",
              attachment: tuple[Any, ...] = (), progress: Progress = quiet) -> Body | RotorBody:
     """The body the scene runs on for ``[basis] kind`` ("full", "rotor" or "auto",
-    ``rotor.choose_basis``): ``body`` itself, or its rotor body with the model's elastic modes
-    (and, for ``attachment`` loads, ``config.basis.AttachmentLoad``, their attachment modes)."""
-    from gcms_fenicsx.config.basis import choose_basis   # config.basis reads dynamics.scene
+    ``basis_choice.choose_basis``): ``body`` itself, or its rotor body with the model's
+    elastic modes (and, for ``attachment`` loads, ``config.basis.AttachmentLoad``, their
+    attachment modes). A scene whose initial mode the rotor basis does not hold (a mode of the
+    full basis beyond the model's free-free ones) runs in the full basis under "auto" and is
+    refused under "rotor"."""
     choice = choose_basis(kind, scene)
     if choice.kind == "full":
         if kind == "auto":
             progress(f"basis: full ({choice.reason})")
         return body
     assert choice.axis is not None
-    fields = mode_fields(body, len(model.frequencies_hz))
+    lam, psi = elastic_modes(body)
+    fields = mode_fields(psi, len(model.frequencies_hz))
     if attachment:
-        fields = np.hstack([fields, attachment_fields(body, generalized_loads(body, attachment),
-                                                      fields)])
+        loads = generalized_loads(body, attachment)
+        fields = np.hstack([fields, attachment_fields(body, loads, lam, psi, fields)])
     rotor = rotor_body(body, np.array(choice.axis, float), fields)
+    outside = _initial_outside(rotor, scene)
+    if outside is not None:
+        if kind == "rotor":
+            raise SceneError(f'[scene.initial] mode {scene.initial.mode} is not in the rotor '
+                             f"basis ({outside}); choose a lower mode or [basis] kind = "
+                             '"full" or "auto"')
+        progress(f"basis: full (the initial mode {scene.initial.mode} is not in the rotor "
+                 f"basis: {outside})")
+        return body
     dropped = rotor.basis.dropped
     progress(f"basis: rotor ({choice.reason}): {rotor.dofs} coordinates instead of "
              f"{body.dofs}" + (f"; {len(dropped)} columns dropped as dependent" if dropped
@@ -40,21 +54,22 @@ def in_basis(model: ReducedModel, body: Body, scene: Scene, kind: str = "full",
     return rotor
 
 
-#: The initial state of the full basis must lie in the rotor basis to this relative Mr-norm.
+#: The initial deformation of the full basis must lie in the rotor basis to this relative
+#: Mr-norm.
 ROTOR_START = 1e-6
 
 
-def rotor_start(rotor: RotorBody, q: np.ndarray, scene: Scene) -> np.ndarray:
-    """The rotor coordinates of the full basis's initial state q; SceneError when it is not in
-    the rotor basis (an initial mode beyond the ones it holds)."""
-    p, residual = rotor.project(q)
-    if residual > ROTOR_START:
-        raise SceneError(
-            f"[scene.initial] mode {scene.initial.mode} is not in the rotor basis ({residual:.2g} "
-            "of the initial state lies outside it: the rotor basis holds the model's free-free "
-            'modes, not the other modes of its full basis); choose a lower mode or [basis] '
-            'kind = "full"')
-    return p
+def _initial_outside(rotor: RotorBody, scene: Scene) -> str | None:
+    """Why the scene's initial state is not in the rotor basis, or None: the part of its
+    deformation q − q0 outside it, relative, when above ROTOR_START."""
+    if scene.initial.mode is None:
+        return None
+    _, residual = rotor.project(initial_coordinates(rotor.full, scene.initial))
+    if residual <= ROTOR_START:
+        return None
+    return (f"{residual:.2g} of its shape lies outside it; the rotor basis holds the model's "
+            f"{rotor.basis.fields} fields, the free-free modes first, not the other modes of "
+            "the full basis")
 
 
 def rotor_summary(rotor: RotorBody) -> dict:

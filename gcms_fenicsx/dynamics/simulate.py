@@ -42,7 +42,7 @@ from gcms_fenicsx.dynamics.results import (MemorySink, ResultsWriter, RunInfo, S
                                            Trajectory)
 from gcms_fenicsx.dynamics.rotation import InvertedBodyError
 from gcms_fenicsx.dynamics.rotor import RotorBody
-from gcms_fenicsx.dynamics.run_basis import in_basis, rotor_start, rotor_summary
+from gcms_fenicsx.dynamics.run_basis import in_basis, rotor_summary
 from gcms_fenicsx.dynamics.scene import Scene, SceneError
 from gcms_fenicsx.dynamics.svk import CoefficientsError, SVKLaw, svk_state
 from gcms_fenicsx.files.outputs import atomic_file, finite_json
@@ -208,7 +208,7 @@ def prepare_run(body: Body | RotorBody, scene: Scene, capacity: Capacity,
         progress(f"warning: {warning}")
     full = _full(body)
     q_full = initial_coordinates(full, scene.initial)
-    q = rotor_start(body, q_full, scene) if isinstance(body, RotorBody) else q_full
+    q = body.project(q_full)[0] if isinstance(body, RotorBody) else q_full
     if elastic is not None and scene.initial.mode is not None:
         warning = nonlinear_start(body, elastic, q, scene)
         if warning:
