@@ -13,7 +13,8 @@ Modules: ``rotation`` (polar decomposition and its rate), ``body`` (the GCMS bod
 ``corotated`` (elastic energy, forces, exact tangent), ``joints`` (linear constraints),
 ``loads``, ``scene`` (the [scene] table), ``initial`` (the initial mode shape),
 ``integrator`` (generalized-α and Newton), ``recorder`` and ``results`` (what is kept,
-results.h5), ``budget`` (whether the results fit), ``simulate`` (composition).
+results.h5), ``budget`` (whether the results fit), ``simulate`` (composition); the rotor
+basis: ``rotor``, ``rotor_basis``, ``basis_choice``, ``run_basis``.
 """
 from gcms_fenicsx.dynamics.results import ResultsError, Trajectory, read_results, write_results
 from gcms_fenicsx.dynamics.scene import Scene, SceneError, parse_scene

@@ -40,8 +40,8 @@ def simulate_on(suite: Suite, reduced: Run, study: dict, name: str, case: str,
 
 
 def long_runs(suite: Suite) -> None:
-    """Class 5: the flexible pendulum for LONG_STEPS steps; the crankshaft reduced once, then
-    simulated at each drive speed (and, in a full run, the fastest with a quarter of the step:
+    """Class 5: the flexible pendulum for LONG_STEPS steps (co-rotated, SVK and in the rotor
+    basis); the crankshaft reduced once, then simulated at each drive speed in both bases (and, in a full run, the fastest with a quarter of the step:
     does its error converge as a second-order method's, 1/16, or not)."""
     run = gcms("run", flexible_pendulum(LONG_STEPS), suite.path("long_pendulum"))
     suite.probe("long", f"flexible pendulum, {LONG_STEPS} steps", run, read_long,
@@ -51,6 +51,10 @@ def long_runs(suite: Suite) -> None:
     run = gcms("run", exact, suite.path("long_pendulum_svk"))
     suite.probe("long", f"flexible pendulum, elasticity svk, {LONG_STEPS} steps", run,
                 read_long, body="pendulum", drive_factor=None)
+    rotor = dict(flexible_pendulum(LONG_STEPS), basis={"kind": "rotor"})
+    run = gcms("run", rotor, suite.path("long_pendulum_rotor"))
+    suite.probe("long", f"flexible pendulum, rotor basis, {LONG_STEPS} steps", run, read_long,
+                body="pendulum", drive_factor=None)
     reduced = gcms("reduce", without_scene(default_study()), suite.path("long_crank_reduced"))
     suite.probe("long", "crankshaft, reduce", reduced, read_selection, body="crankshaft",
                 drive_factor=None)
@@ -60,6 +64,10 @@ def long_runs(suite: Suite) -> None:
     for factor in ((1,) if suite.quick else DRIVE_FACTORS):
         simulate_on(suite, reduced, driven_crankshaft(factor, steps), f"long_crank_x{factor}",
                     f"crankshaft, drive ×{factor}", drive_factor=factor)
+        simulate_on(suite, reduced, dict(driven_crankshaft(factor, steps),
+                                         basis={"kind": "rotor"}),
+                    f"long_crank_rotor_x{factor}", f"crankshaft, drive ×{factor}, rotor basis",
+                    drive_factor=factor)
     if not suite.quick:
         fastest = DRIVE_FACTORS[-1]
         simulate_on(suite, reduced, driven_crankshaft(fastest, steps, step_factor=0.25),
