@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 
@@ -169,6 +169,33 @@ class FieldFrame:
 
 
 FIELD_FRAME = FieldFrame()
+
+
+class Coordinates(Protocol):
+    """What the integrator, the joints, the damping and the Newton systems need of a body:
+    the full basis's :class:`Body`, or a rotor body (``rotor.RotorBody``, coordinates p with
+    q = B p)."""
+
+    mass: Any
+    stiffness: Any
+    q0: np.ndarray
+
+    @property
+    def dofs(self) -> int: ...
+
+    @property
+    def mass_product(self) -> Any: ...
+
+    @property
+    def total_mass_kg(self) -> float: ...
+
+    @property
+    def size_m(self) -> float: ...
+
+    @property
+    def frame(self) -> Any: ...
+
+    def rigid_velocities(self, q: np.ndarray) -> np.ndarray: ...
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from gcms_fenicsx.dynamics.body import Body, projected
+from gcms_fenicsx.dynamics.body import Body, Coordinates, projected
 from gcms_fenicsx.dynamics.corotated import ElasticState, frame_force
 from gcms_fenicsx.dynamics.rotation import AXIAL_ROWS, SKEW_ROWS
 
@@ -32,7 +32,7 @@ class RayleighDamping:
     def active(self) -> bool:
         return (self.alpha, self.beta) != (0.0, 0.0)
 
-    def on(self, body: Any) -> Any:
+    def on(self, body: Coordinates) -> Any:
         """The damping force on ``body`` (a rotor body makes its own, ``rotor.RotorDamping``)."""
         D0 = self.alpha * body.mass + self.beta * body.stiffness
         if not isinstance(body, Body):

@@ -44,7 +44,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from gcms_fenicsx.dynamics.body import Body
+from gcms_fenicsx.dynamics.body import Body, Coordinates
 from gcms_fenicsx.dynamics.scene import Drive, Joint, SceneError
 
 #: A rotation constraint about c needs a group direction d ⊥ c with at least this length
@@ -200,7 +200,7 @@ def _lever(span: np.ndarray, c: np.ndarray, turning: np.ndarray | None) -> np.nd
     return perp[:, best] / lengths[best] if lengths[best] > _MIN_LEVER else None
 
 
-def build_constraints(body: Any, joints: tuple[Joint, ...], q_start: np.ndarray,
+def build_constraints(body: Coordinates, joints: tuple[Joint, ...], q_start: np.ndarray,
                       mass_solve: MassSolve | None = None) -> Constraints:
     """The independent rows of every joint, with targets taken at ``q_start`` (module
     docstring); ``mass_solve`` applies Mr⁻¹ (default: a dense solve). Drive rows come last in
@@ -348,11 +348,15 @@ def _contradicting_drive(joints: tuple[Joint, ...], c: Constraints, row: int,
                          weights: dict[int, float]) -> SceneError:
     """SceneError: the drive's row ``row`` is implied by the rows ``weights`` of other joints."""
     drive = c.rows[row]
-    largest = max((abs(w) for w in weights.values()), default=0.0)
+    position = next(k for k, j in enumerate(joints) if j.name == drive.joint)
+    if not weights:
+        return SceneError(f"[scene] joints[{position}] ({drive.joint}): the coordinates cannot "
+                          f"turn the body about {np.round(drive.axis, 3).tolist()}, the axis "
+                          "its drive turns it about")
+    largest = max(abs(w) for w in weights.values())
     others = list(dict.fromkeys(c.rows[k].joint for k, w in weights.items()
                                 if abs(w) > _NAMED_SHARE * largest
                                 and c.rows[k].joint != drive.joint))
-    position = next(k for k, j in enumerate(joints) if j.name == drive.joint)
     named = " and ".join(repr(o) for o in others) or "its own rows"
     return SceneError(
         f"[scene] joints[{position}] ({drive.joint}): its drive about "

@@ -16,6 +16,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from gcms_fenicsx.dynamics.body import Coordinates
 from gcms_fenicsx.dynamics.joints import Constraints
 from gcms_fenicsx.dynamics.lapack import dot_into, inverse
 
@@ -46,7 +47,7 @@ class BorderedKKT:
     (with the rank-9 term or without; ``rank``: 9, or 2 for rotor coordinates).
     """
 
-    def __init__(self, body: Any, constraints: Constraints, solve: Solve,
+    def __init__(self, body: Coordinates, constraints: Constraints, solve: Solve,
                  apply_A: Callable[[np.ndarray], np.ndarray], frame_update: FrameUpdate,
                  rank: int = 9) -> None:
         self.body, self.c, self.solve0, self.apply_A = body, constraints, solve, apply_A
@@ -127,7 +128,7 @@ class AssembledKKT:
     """Textbook Newton: [S Cᵀ; C 0] with S = T S₀ Tᵀ + X Y assembled densely and solved by LU at
     every ``solve`` (dense bodies only; the baseline the benchmarks compare against)."""
 
-    def __init__(self, body: Any, constraints: Constraints, S0: np.ndarray,
+    def __init__(self, body: Coordinates, constraints: Constraints, S0: np.ndarray,
                  apply_A: Callable[[np.ndarray], np.ndarray], frame_update: FrameUpdate) -> None:
         self.body, self.c, self.S0, self.apply_A = body, constraints, S0, apply_A
         self.frame_update = frame_update
@@ -158,7 +159,7 @@ class TangentKKT:
     bordered matrix [S Cᵀ; C 0] assembled and inverted when prepared and reused by every
     ``solve`` until the next ``prepare`` (dense bodies only)."""
 
-    def __init__(self, body: Any, constraints: Constraints, beta_p: float) -> None:
+    def __init__(self, body: Coordinates, constraints: Constraints, beta_p: float) -> None:
         self.c, self.frame = constraints, body.frame
         self.inertia = beta_p * np.asarray(body.mass)
         self.n = body.dofs

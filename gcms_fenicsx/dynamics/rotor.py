@@ -53,8 +53,9 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from gcms_fenicsx.dynamics.body import Body
-from gcms_fenicsx.dynamics.rotation import InvertedBodyError, skew
-from gcms_fenicsx.dynamics.rotor_basis import (RELATIVE_RESIDUAL, RotorBasis, rotor_basis)
+from gcms_fenicsx.dynamics.rotation import InvertedBodyError
+from gcms_fenicsx.dynamics.rotor_basis import (RELATIVE_RESIDUAL, RotorBasis, axis_projectors,
+                                               rotor_basis)
 
 #: The in-plane affine map N of a body that still has a frame has det N above this fraction
 #: of ρ² (ρ = |(N11 + N22, N21 − N12)|; ρ² = 4 det N for a rotation).
@@ -115,9 +116,7 @@ class RotorFrame:
 
     @cached_property
     def _projectors(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """A1, A2, A3 (module docstring)."""
-        a = self.axis
-        return np.outer(a, a), np.eye(3) - np.outer(a, a), skew(a)
+        return axis_projectors(self.axis)
 
     def rotation_matrix(self, phase: complex) -> np.ndarray:
         """R = A1 + cos ψ A2 + sin ψ A3 (3 × 3, world)."""

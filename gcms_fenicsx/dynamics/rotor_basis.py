@@ -50,6 +50,11 @@ class RotorBasis:
         return 2 * self.pairs, 0, 1
 
 
+def axis_projectors(a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A1 = a aᵀ, A2 = I − a aᵀ, A3 = [a]× of the unit axis a: R(φ) = A1 + cos φ A2 + sin φ A3."""
+    return np.outer(a, a), np.eye(3) - np.outer(a, a), skew(a)
+
+
 def axis_frame(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(a, [b1 b2]) with (a, b1, b2) right-handed and orthonormal, a = axis / |axis|."""
     a = np.asarray(axis, float) / np.linalg.norm(axis)
@@ -75,7 +80,7 @@ def rotor_basis(body: Body, axis: np.ndarray, fields: np.ndarray,
     separately (t, κ and (cos φ, sin φ) always stay).
     """
     a, plane = axis_frame(axis)
-    A = (np.outer(a, a), np.eye(3) - np.outer(a, a), skew(a))
+    A = axis_projectors(a)
     nf = body.field_count
     L = np.linalg.cholesky(np.asarray(body.mass))
 

@@ -135,3 +135,17 @@ def test_a_drive_another_joint_contradicts_is_bad_input(body):
         with pytest.raises(SceneError, match=rf"joints\[{index}\] \(motor\): its drive about "
                                              r"\[0\.0, 0\.0, 1\.0\] contradicts joint 'clamp'"):
             simulate_body(body, swing(joints))
+
+
+def test_a_row_the_coordinates_cannot_move_is_implied_by_them():
+    """In subspace coordinates (the rotor basis), a row whose reach there is below UNMOVED of
+    its reach in the full coordinates is implied, with no weights; the others are decided as
+    before. Rows: e1, a row of reach 1e-7 (cosine) in the subspace, e1 + e2."""
+    mass = np.eye(3)
+    C = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1e-7], [1.0, 1.0, 0.0]])
+    reach = np.array([1.0, 1.0, 2.0])
+    kept, implied = independent_rows(C, mass, lambda X: np.linalg.solve(mass, X), [0, 1, 2],
+                                     reach)
+    assert kept == [0, 2] and implied == {1: {}}
+    kept, implied = independent_rows(C, mass, lambda X: np.linalg.solve(mass, X), [0, 1, 2])
+    assert kept == [0, 1, 2] and implied == {}
