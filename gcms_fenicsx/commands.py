@@ -20,7 +20,6 @@ from pathlib import Path
 from typing import Any
 
 from gcms_fenicsx import pipeline, stage_cache, stage_files
-from gcms_fenicsx.config.basis import attachment_loads
 from gcms_fenicsx.config.study import StudyConfig, load_config
 from gcms_fenicsx.config.table import ConfigError
 from gcms_fenicsx.files.names import MESH_FILES, MODES_FILES, REDUCE_FILES, SIMULATION_FILES
@@ -100,7 +99,7 @@ def scene_files(cfg: StudyConfig, model: ReducedModel, folder: Path, progress: P
     results = folder / "results.h5"
     t0 = time.perf_counter()
     summary = pipeline.simulation_stage(model, cfg.scene, results, progress, cfg.basis.kind,
-                                        attachment_loads(cfg.basis, cfg.scene))
+                                        cfg.modes.attachment or ())
     if plots:
         summary["plots"] = plot_results(results, folder)
     if stages is not None:

@@ -40,31 +40,27 @@ def log(message: str) -> None:
     print(message, file=sys.stderr, flush=True)
 
 
-def run(model, scene, basis: str, repeat: int) -> tuple[dict, dict]:
-    """(outputs, summary of the fastest of ``repeat`` runs) of ``scene`` in ``basis``."""
+def run(model, scene, basis: str) -> tuple[dict, dict]:
+    """(outputs, summary) of one run of ``scene`` in ``basis``."""
     from gcms_fenicsx.dynamics.simulate import simulate
 
-    best = None
-    for _ in range(repeat):
-        traj, summary = simulate(model, scene, basis=basis)
-        if not summary["complete"]:
-            raise SystemExit(f"{basis} basis: {summary['message']}")
-        if best is None or summary["wall_time_s"] < best[1]["wall_time_s"]:
-            best = (outputs(traj), summary)
-    assert best is not None
-    return best
+    traj, summary = simulate(model, scene, basis=basis)
+    if not summary["complete"]:
+        raise SystemExit(f"{basis} basis: {summary['message']}")
+    return outputs(traj), summary
 
 
 def case(model, scene, repeat: int) -> dict:
-    """Both bases on ``scene`` (alternating), and both at half the step."""
+    """Both bases on ``scene``, alternating, the fastest of ``repeat`` runs each kept; and
+    both once at half the step."""
     half = replace(scene, time_step_s=scene.time_step_s / 2)
     out, summaries = {}, {}
     for _ in range(repeat):
         for basis in ("full", "rotor"):
-            o, s = run(model, scene, basis, 1)
+            o, s = run(model, scene, basis)
             if basis not in summaries or s["wall_time_s"] < summaries[basis]["wall_time_s"]:
                 out[basis], summaries[basis] = o, s
-    halves = {basis: run(model, half, basis, 1)[0] for basis in ("full", "rotor")}
+    halves = {basis: run(model, half, basis)[0] for basis in ("full", "rotor")}
     thinned = {b: {k: v[::2] for k, v in o.items()} for b, o in halves.items()}
     full, rotor = summaries["full"], summaries["rotor"]
     return {

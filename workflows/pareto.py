@@ -120,13 +120,12 @@ def pendulum_reference(folder: Path) -> dict:
 def pendulum_error(reduced, cfg, ref: dict, basis: str) -> tuple[float, float, int]:
     """(error against (a), simulation seconds, coordinates) of one reduced pendulum in
     ``basis``."""
-    from gcms_fenicsx.config.basis import attachment_loads
     from gcms_fenicsx.dynamics.simulate import simulate
     from gcms_fenicsx.references import pendulum
 
     t0 = time.perf_counter()
     traj, summary = simulate(reduced, cfg.scene, basis=basis,
-                             attachment=attachment_loads(cfg.basis, cfg.scene))
+                             attachment=cfg.modes.attachment or ())
     online = time.perf_counter() - t0
     if not summary["complete"]:
         return float("nan"), online, summary["reduced_dofs"]
@@ -141,14 +140,13 @@ def pendulum_error(reduced, cfg, ref: dict, basis: str) -> tuple[float, float, i
 def crankshaft_outputs(reduced, cfg, folder: Path, tag: str, basis: str = "full"
                        ) -> tuple[dict, float, np.ndarray, int]:
     """(outputs, simulation seconds, recorded times, coordinates) of one run in ``basis``."""
-    from gcms_fenicsx.config.basis import attachment_loads
     from gcms_fenicsx.dynamics.results import read_results
     from gcms_fenicsx.dynamics.simulate import simulate_to_file
 
     path = folder / f"{tag}.h5"
     t0 = time.perf_counter()
     summary = simulate_to_file(reduced, cfg.scene, path, basis=basis,
-                               attachment=attachment_loads(cfg.basis, cfg.scene))
+                               attachment=cfg.modes.attachment or ())
     online = time.perf_counter() - t0
     results = read_results(path)
     return outputs(results), online, results.time, summary["reduced_dofs"]

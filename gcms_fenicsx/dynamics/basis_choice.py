@@ -54,16 +54,12 @@ def _rotor_problem(scene: Scene) -> str | None:
         if j.type != "revolute":
             return f"joint {j.name!r} is {j.type}; {needs}"
     first = scene.joints[0]
-    a = _unit(first.axis)
+    a = first.axis                        # the scene's axes are unit vectors (``scene``)
     for j in scene.joints[1:]:
-        b = _unit(j.axis)
+        b = j.axis
         cross = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
         if math.sqrt(sum(x * x for x in cross)) > PARALLEL:
             return (f"joints {first.name!r} (axis {list(first.axis)}) and {j.name!r} (axis "
                     f"{list(j.axis)}) turn about different axes")
     return None
 
-
-def _unit(v) -> tuple[float, float, float]:
-    n = math.sqrt(sum(x * x for x in v))
-    return tuple(x / n for x in v)

@@ -125,11 +125,6 @@ class FieldFrame:
     coordinates, whose rotation is a phase)."""
 
     @staticmethod
-    def to_local(y: np.ndarray, R: np.ndarray) -> np.ndarray:
-        """Tᵀ y."""
-        return y.reshape(-1, 3).dot(R).ravel()
-
-    @staticmethod
     def to_global(y: np.ndarray, R: np.ndarray) -> np.ndarray:
         """T y."""
         return y.reshape(-1, 3).dot(R.T).ravel()

@@ -17,7 +17,7 @@ decomposition (``rotation.rotation_rate``: dR = R [ω]×, ω = S⁻¹ w(Rᵀ dA)
 
 where the H-term is the work of the local forces on the change of frame. Its derivative,
 the exact tangent, is (I ⊗ R) Kr (I ⊗ Rᵀ) plus a rank-9 term from the change of frame
-(:func:`frame_update`, :func:`elastic_tangent`); the integrator factorises only the first
+(:func:`local_frame_update`, :func:`elastic_tangent`); the integrator factorises only the first
 part and adds the second by the Woodbury identity (``integrator``).
 """
 from __future__ import annotations
@@ -99,17 +99,6 @@ def frame_force(body: Body, frame: Polar, local: np.ndarray, P: np.ndarray
     return b, P - b.dot(body.projections.affine_cross).reshape(-1, 3)
 
 
-def frame_update(body: Body, s: ElasticState,
-                 apply_A: Callable[[np.ndarray], np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """(X, Y) with J_eᵀ A J_e + G = T A Tᵀ + X Y, rank 9, for a symmetric operator A that
-    annihilates translations (A = Kr gives the exact tangent ∂²V/∂q²): X = T X_loc and
-    Y = Y_loc Tᵀ from :func:`local_frame_update`."""
-    X_loc, Y_loc = local_frame_update(body, s, apply_A)
-    R = s.rotation
-    return (np.matmul(R, X_loc.reshape(-1, 3, X_loc.shape[1])).reshape(X_loc.shape),
-            np.matmul(R, Y_loc.T.reshape(-1, 3, len(Y_loc))).reshape(Y_loc.shape[::-1]).T)
-
-
 def local_frame_update(body: Body, s: ElasticState, apply_A: Callable[[np.ndarray], np.ndarray]
                        ) -> tuple[np.ndarray, np.ndarray]:
     """(X_loc, Y_loc) with J_eᵀ A J_e + G = T (A + X_loc Y_loc) Tᵀ (T = I ⊗ R): the rank-9
@@ -152,12 +141,13 @@ def local_frame_update(body: Body, s: ElasticState, apply_A: Callable[[np.ndarra
 
 
 def elastic_tangent(body: Body, q: np.ndarray, state: ElasticState | None = None) -> np.ndarray:
-    """The exact tangent ∂²V/∂q² (n × n, dense): T Kr Tᵀ + X Y (:func:`frame_update`).
+    """The exact tangent ∂²V/∂q² (n × n, dense): T (Kr + X_loc Y_loc) Tᵀ
+    (:func:`local_frame_update`).
 
     Symmetric up to round-off (it is a Hessian); checked against finite differences in
     the tests.
     """
     s = elastic_state(body, q) if state is None else state
-    T = np.kron(np.eye(body.field_count), s.rotation)
-    X, Y = frame_update(body, s, lambda V: body.stiffness @ V)
-    return T @ np.asarray(body.stiffness @ T.T) + X @ Y
+    T = body.frame.matrix(s.rotation, body.dofs)
+    X, Y = local_frame_update(body, s, lambda V: body.stiffness @ V)
+    return T @ (np.asarray(body.stiffness) + X @ Y) @ T.T

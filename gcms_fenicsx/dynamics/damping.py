@@ -46,7 +46,7 @@ class RayleighDamping:
 
     def frame_operator(self, body: Body, gamma_p: float) -> Callable[[np.ndarray], np.ndarray]:
         """X ↦ A X with A = γ' D₀ + Kr = γ'α Mr + (1 + γ'β) Kr, the operator the rank-9
-        change-of-frame term applies J_e to (``corotated.frame_update``)."""
+        change-of-frame term applies J_e to (``corotated.local_frame_update``)."""
         stiffness, mass = 1.0 + gamma_p * self.beta, gamma_p * self.alpha
 
         def apply(X: np.ndarray) -> np.ndarray:

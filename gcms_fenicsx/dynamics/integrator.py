@@ -19,7 +19,7 @@ Newton on (q_{n+1}, λ_{n+1}): a correction Δq changes q̈ by β'Δq and q̇ by
 iteration matrix is S = β' Mr + J_eᵀ (γ' D₀ + Kr) J_e + G (damping's ∂f_d/∂q, a few per
 mille of γ'∂f_d/∂q̇, left out). With T = I ⊗ R and S₀ = β' Mr + γ' D₀ + Kr (``damping``),
 Mr = G ⊗ I3 commutes with T, so S = T S₀ Tᵀ + X Y with X Y of rank 9
-(``corotated.frame_update``). S₀ is factorised once for the whole run (``factorization``);
+(``corotated.local_frame_update``). S₀ is factorised once for the whole run (``factorization``);
 per step R is taken at the first iteration and kept (modified Newton), and the linear
 system is solved by ``kkt`` as the ``jacobian`` policy says.
 

@@ -143,7 +143,7 @@ class Constraints:
 
     @cached_property
     def _subspace_rows(self) -> np.ndarray:
-        """kron(v_k, e_l) B for every vector and direction, and the kept rows' (m, 3, n)."""
+        """kron(v_k, e_l) B for every vector k and direction l (nv, 3, n)."""
         assert self.coordinates is not None
         return self._kron_rows().dot(self.coordinates)
 
@@ -174,15 +174,16 @@ class Constraints:
                                                                       3 * self.vectors.shape[1])
 
 
-def _frame(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors b1, b2 with (b1, b2, axis) right-handed and orthonormal."""
+def plane_basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors b1, b2 with (b1, b2, axis) right-handed and orthonormal (axis a unit
+    vector; then a × b1 = b2)."""
     helper = np.eye(3)[int(np.argmin(np.abs(axis)))]
     b1 = np.cross(axis, helper)
     b1 /= np.linalg.norm(b1)
     return b1, np.cross(axis, b1)
 
 
-def _lever(span: np.ndarray, c: np.ndarray, turning: np.ndarray | None) -> np.ndarray | None:
+def lever(span: np.ndarray, c: np.ndarray, turning: np.ndarray | None) -> np.ndarray | None:
     """A unit direction d in the group's span with d ⊥ c, or None if the group has none.
 
     With a turning axis e, only d = e × c or d = e give rows blind to the turning.
@@ -255,11 +256,11 @@ def _all_rows(body: Body, joints: tuple[Joint, ...], q_start: np.ndarray) -> Con
         if joint.type == "spherical":
             continue
         axis = np.eye(3)[0] if joint.axis is None else np.asarray(joint.axis)
-        frame = (*_frame(axis), axis) if joint.axis is not None else tuple(np.eye(3))
+        frame = (*plane_basis(axis), axis) if joint.axis is not None else tuple(np.eye(3))
         turns = joint.type == "revolute" or joint.drive is not None
         for k in [0, 1] if joint.type == "revolute" and joint.drive is None else [0, 1, 2]:
             c = frame[k]
-            d = _lever(g.span, c, axis if turns and k < 2 else None)
+            d = lever(g.span, c, axis if turns and k < 2 else None)
             if d is None:
                 raise SceneError(
                     f"joint {joint.name!r}: group {joint.group!r} cannot hold a rotation about "

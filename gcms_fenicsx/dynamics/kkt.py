@@ -48,7 +48,7 @@ class BorderedKKT:
     """
 
     def __init__(self, body: Coordinates, constraints: Constraints, solve: Solve,
-                 apply_A: Callable[[np.ndarray], np.ndarray], frame_update: FrameUpdate,
+                 apply_A: Operator, frame_update: FrameUpdate,
                  rank: int = 9) -> None:
         self.body, self.c, self.solve0, self.apply_A = body, constraints, solve, apply_A
         self.frame, self.frame_update = body.frame, frame_update
@@ -129,7 +129,7 @@ class AssembledKKT:
     every ``solve`` (dense bodies only; the baseline the benchmarks compare against)."""
 
     def __init__(self, body: Coordinates, constraints: Constraints, S0: np.ndarray,
-                 apply_A: Callable[[np.ndarray], np.ndarray], frame_update: FrameUpdate) -> None:
+                 apply_A: Operator, frame_update: FrameUpdate) -> None:
         self.body, self.c, self.S0, self.apply_A = body, constraints, S0, apply_A
         self.frame_update = frame_update
         self.es: Any = None

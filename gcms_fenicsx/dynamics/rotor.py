@@ -142,17 +142,28 @@ class RotorFrame:
 class RotorBody:
     """A body in rotor coordinates p (q = B p of its full body ``full``): what the integrator
     needs (Mp, K̃, p0, the frame weights, the total mass and the size) and the maps between p
-    and q. ``turn`` is P Ĵ (Ĵ without t's rows), so that c = P Ĵ p_l is one product."""
+    and q."""
 
     full: Body
     basis: RotorBasis
     mass: np.ndarray
     stiffness: np.ndarray     # K̃ = P Kp P
     q0: np.ndarray            # p0
-    weights: np.ndarray       # (2, np): w_c, w_s
     plane_map: np.ndarray     # (4, np): N11, N12, N21, N22 (N · p, row by row)
-    turn: np.ndarray          # P Ĵ (np × np)
     frame: RotorFrame
+
+    @cached_property
+    def weights(self) -> np.ndarray:
+        """(w_c, w_s) (2, np): w_c · p = N11 + N22, w_s · p = N21 − N12."""
+        N = self.plane_map
+        return np.array([N[0] + N[3], N[2] - N[1]])
+
+    @cached_property
+    def turn(self) -> np.ndarray:
+        """P Ĵ (np × np): Ĵ without t's rows, so that c = P Ĵ p_l is one product."""
+        J = np.column_stack([self.frame.generator(e) for e in np.eye(self.dofs)])
+        J[list(self.basis.translation), :] = 0.0
+        return J
 
     @property
     def dofs(self) -> int:
@@ -221,12 +232,9 @@ def rotor_body(body: Body, axis: np.ndarray, fields: np.ndarray,
     E2 = basis.plane
     N = np.array([(E2.T @ B[:, j].reshape(nf, 3).T @ body.affine @ E2).ravel()
                   for j in range(B.shape[1])]).T                       # (4, np)
-    w = np.array([N[0] + N[3], N[2] - N[1]])
     frame = RotorFrame(pairs=basis.pairs, axis=basis.axis, plane=basis.plane)
-    turn = np.column_stack([frame.generator(e) for e in np.eye(B.shape[1])])
-    turn[list(basis.translation), :] = 0.0
     return RotorBody(full=body, basis=basis, mass=0.5 * (Mp + Mp.T), stiffness=K,
-                     q0=basis.rest.copy(), weights=w, plane_map=N, turn=turn, frame=frame)
+                     q0=basis.rest.copy(), plane_map=N, frame=frame)
 
 
 class RotorState(NamedTuple):

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from gcms_fenicsx.dynamics.body import Body
+from gcms_fenicsx.dynamics.joints import lever, plane_basis
 from gcms_fenicsx.dynamics.rotation import skew
 from gcms_fenicsx.dynamics.scene import SceneError
 
@@ -56,12 +57,10 @@ def axis_projectors(a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def axis_frame(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(a, [b1 b2]) with (a, b1, b2) right-handed and orthonormal, a = axis / |axis|."""
+    """(a, [b1 b2]) with (a, b1, b2) right-handed and orthonormal, a = axis / |axis|: the
+    joints' own (``joints.plane_basis``), so the rotor's pairs are the drive rows' plane."""
     a = np.asarray(axis, float) / np.linalg.norm(axis)
-    helper = np.eye(3)[int(np.argmin(np.abs(a)))]
-    b1 = np.cross(a, helper)
-    b1 /= np.linalg.norm(b1)
-    return a, np.column_stack((b1, np.cross(a, b1)))
+    return a, np.column_stack(plane_basis(a))
 
 
 def rotor_basis(body: Body, axis: np.ndarray, fields: np.ndarray,
@@ -168,7 +167,7 @@ def generalized_loads(body: Body, loads: Any) -> np.ndarray:
     """Generalized forces (n × k) of attachment unit loads (``config.basis.AttachmentLoad``):
     a force F at a group's mean position is kron(h, F); a moment about c is the force conjugate
     to the group's small rotation about c, kron(H_G d, c × d) for a lever d ⊥ c in the group's
-    span (``joints``)."""
+    span (``joints.lever``, as the joints' moment rows)."""
     cols = []
     for load in loads:
         g = body.groups[load.group]
@@ -176,12 +175,10 @@ def generalized_loads(body: Body, loads: Any) -> np.ndarray:
         if load.kind == "force":
             cols.append(np.kron(g.position, direction))
             continue
-        perp = g.span - np.outer(direction, direction @ g.span)
-        lengths = np.linalg.norm(perp, axis=0)
-        if not lengths.size or lengths.max() < 1e-3:
+        d = lever(g.span, direction, None)
+        if d is None:
             raise SceneError(f"[basis] attachment: group {load.group!r} cannot take a moment "
                              f"about {direction.tolist()}: its nodes do not extend "
                              "perpendicular to it")
-        d = perp[:, int(np.argmax(lengths))] / lengths.max()
         cols.append(np.kron(g.affine @ d, np.cross(direction, d)))
     return np.column_stack(cols) if cols else np.zeros((body.dofs, 0))
