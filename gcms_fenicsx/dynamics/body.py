@@ -130,9 +130,15 @@ class FieldFrame:
         return y.reshape(-1, 3).dot(R.T).ravel()
 
     @staticmethod
-    def back(z: np.ndarray, R: np.ndarray) -> np.ndarray:
-        """−T z (a Newton correction turned back to global coordinates)."""
-        return z.reshape(-1, 3).dot(-R.T).ravel()
+    def back_operator(R: np.ndarray) -> np.ndarray:
+        """What :meth:`back` turns with, formed once per linearisation: −Rᵀ."""
+        return -R.T
+
+    @staticmethod
+    def back(z: np.ndarray, minus_RT: np.ndarray) -> np.ndarray:
+        """−T z (a Newton correction turned back to global coordinates), with −Rᵀ from
+        :meth:`back_operator`."""
+        return z.reshape(-1, 3).dot(minus_RT).ravel()
 
     @staticmethod
     def residual(y: np.ndarray, gradient: np.ndarray, R_state: np.ndarray,

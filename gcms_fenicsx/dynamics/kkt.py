@@ -79,7 +79,7 @@ class BorderedKKT:
         ``relinearise`` (or nothing kept yet) recomputes them at ``es``.
         """
         R, m = es.rotation, self.m
-        self.R = R
+        self.R, self.back = R, self.frame.back_operator(R)
         if exact and (relinearise or not self.kept):
             self._relinearise(es)
         if not m and not exact:
@@ -106,12 +106,12 @@ class BorderedKKT:
         and g."""
         z = self.solve0(r_l)                                            # S₀⁻¹ Tᵀ r
         if self.BT is None:
-            return self.frame.back(z, self.R), g[:0]
+            return self.frame.back(z, self.back), g[:0]
         Gz = self.G.dot(z)
         Gz[:self.m] -= g
         sol = self.minus_inverse.dot(Gz)                              # [Δλ; y]
         z += sol.dot(self.BT)
-        return self.frame.back(z, self.R), sol[:self.m]
+        return self.frame.back(z, self.back), sol[:self.m]
 
 
 def _border(n: int, k: int, m: int) -> tuple[np.ndarray, ...]:

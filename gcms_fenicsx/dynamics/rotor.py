@@ -91,6 +91,11 @@ class RotorFrame:
         pairs *= phase
         return out
 
+    @staticmethod
+    def back_operator(phase: complex) -> complex:
+        """What :meth:`back` turns with: the phase itself."""
+        return phase
+
     def back(self, z: np.ndarray, phase: complex) -> np.ndarray:
         """−T z (a Newton correction turned back to global coordinates)."""
         out = -z
