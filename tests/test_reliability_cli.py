@@ -149,3 +149,21 @@ def test_spherical_joints_draw_no_empty_moment_panel(beam6_reduced, tmp_path):
     run = gcms("simulate", str(study(tmp_path)), "--out", str(out))
     assert run.returncode == 0, run.stderr
     assert png_height(out / "joints.png") > 1.5 * one_panel
+
+
+def test_a_folder_where_a_result_file_goes_is_refused_and_kept(beam6_reduced, tmp_path):
+    """A folder of the user's named results.h5 in --out (with a file in it) is refused in one
+    line naming it, before anything runs, and --out is left exactly as it was — the folder is
+    never replaced by the file."""
+    out = output_folder(tmp_path, beam6_reduced)
+    (out / "results.h5").mkdir()
+    (out / "results.h5" / "mine.txt").write_text("kept\n")
+
+    def tree() -> dict:
+        return {str(p.relative_to(out)): p.read_bytes() if p.is_file() else None
+                for p in out.rglob("*")}
+
+    before = tree()
+    run = gcms("simulate", str(study(tmp_path)), "--out", str(out))
+    assert_one_line_error(run, "--out", "'results.h5'", "folder")
+    assert tree() == before and before["results.h5/mine.txt"] == b"kept\n"

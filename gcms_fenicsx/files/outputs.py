@@ -125,21 +125,25 @@ def _make_staging(out_dir: Path) -> Path:
 
 
 def _publish(staging: Path, out_dir: Path, owns: Iterable[str]) -> None:
-    """Move the staged files into ``out_dir`` (created with its parents), replacing what is
-    there; remove the files of ``owns`` that this command did not produce this time."""
+    """Move the staged files into ``out_dir`` (created with its parents), replacing the files
+    there; remove the files of ``owns`` that this command did not produce this time. A folder
+    under one of those names is refused before anything moves (:func:`_refuse_folders`)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     produced = {item.name for item in staging.iterdir()}
+    _refuse_folders(out_dir, produced | set(owns))
     for name in sorted(set(owns) - produced):
-        target = out_dir / name
-        if target.is_dir():
-            shutil.rmtree(target)
-        else:
-            target.unlink(missing_ok=True)
+        (out_dir / name).unlink(missing_ok=True)
     for item in sorted(staging.iterdir()):
-        target = out_dir / item.name
-        if target.is_dir():
-            shutil.rmtree(target)
-        os.replace(item, target)
+        os.replace(item, out_dir / item.name)
+
+
+def _refuse_folders(out_dir: Path, names: Iterable[str]) -> None:
+    """ConfigError if ``out_dir`` holds a folder under a name the command writes a file to:
+    a folder there is the user's, never replaced."""
+    for name in sorted(names):
+        if (out_dir / name).is_dir():
+            raise ConfigError("--out", str(out_dir), f"holds a folder {name!r} where this "
+                              "command writes a file: move or rename the folder")
 
 
 @contextmanager
@@ -150,15 +154,17 @@ def staged_output(out_dir: Path, comm: Any = None, owns: Iterable[str] = ()) -> 
     Files in ``out_dir`` that the command did not produce are left untouched, except those
     named in ``owns`` (what this command writes when it runs fully): a file of ``owns`` it did
     not write this time (a plot a stopped simulation could not draw) would describe an
-    earlier run, so it is removed. ``--out`` that is a file, lies below a file or cannot be
-    written is a ConfigError before anything runs. ``comm``: an mpi4py communicator whose
-    ranks all write through rank 0, or None (serial).
+    earlier run, so it is removed. ``--out`` that is a file, lies below a file, cannot be
+    written or holds a folder under a name of ``owns`` is a ConfigError before anything
+    runs. ``comm``: an mpi4py communicator whose ranks all write through rank 0, or None
+    (serial).
     """
     out_dir = Path(out_dir)
     rank = 0 if comm is None else comm.rank
     staging, error = None, None
     if rank == 0:
         try:
+            _refuse_folders(out_dir, owns)
             staging = _make_staging(out_dir)
         except ConfigError as exc:
             error = exc
