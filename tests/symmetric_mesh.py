@@ -11,7 +11,7 @@ import itertools
 
 import numpy as np
 import ufl
-from dolfinx.mesh import create_mesh
+from dolfinx.mesh import Mesh, create_mesh
 from mpi4py import MPI
 
 # the 6 faces of the unit cube as (fixed axis, side) and their 4 edges as corner pairs
@@ -24,7 +24,7 @@ def _face_edges(axis: int, side: int) -> list[tuple[int, int]]:
             if np.abs(_CORNERS[a] - _CORNERS[b]).sum() == 1]
 
 
-def symmetric_box(comm: MPI.Comm, lower, upper, n) -> "dolfinx.mesh.Mesh":
+def symmetric_box(comm: MPI.Comm, lower, upper, n) -> Mesh:
     """P1 tetrahedral mesh of the box [lower, upper] with n = (nx, ny, nz) hexahedra, 24 tets each."""
     lower, upper, n = np.asarray(lower, float), np.asarray(upper, float), np.asarray(n)
     if comm.rank != 0:

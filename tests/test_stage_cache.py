@@ -172,12 +172,36 @@ def test_an_interrupted_solve_leaves_the_cache_valid(tmp_path):
     assert snapshot(out) == before
 
 
+#: A driven pin and a tip load: attachment modes of every kind (forces, moments whose levers
+#: are blind to the turning, the drive's moment, the centrifugal load).
+DRIVEN_PIN = """
+[scene]
+end_time = 0.01
+time_step = 1e-3
+
+[[scene.joints]]
+type = "revolute"
+group = "end_x0"
+axis = [0.0, 1.0, 0.0]
+drive = { angular_velocity = 10.0, ramp_time = 0.005 }
+
+[[scene.loads]]
+group = "end_xL"
+force = [0.0, 0.0, -1.0]
+
+[basis]
+attachment = "scene"
+"""
+
+
 @pytest.mark.mpi
 def test_two_ranks_give_the_same_cache_as_one(tmp_path):
     """modes.h5 solved on two ranks holds the serial one's basis (rows in the mesh file's
-    order, each mode up to its sign, to the solver's accuracy), and a serial command reuses it."""
+    order, each mode and attachment mode up to its sign, to the solver's accuracy), and a
+    serial command reuses it. The attachment modes (``fe.attachment``, ``fe.static_response``:
+    group sums, levers and the preconditioned iteration across ranks) agree as the modes do."""
     config = tmp_path / "study.toml"
-    config.write_text(beam_study(6))
+    config.write_text(beam_study(6) + DRIVEN_PIN)
     one, two = tmp_path / "one", tmp_path / "two"
     assert gcms("modes", str(config), "--out", str(one)).returncode == 0
     run = mpirun(["-m", "gcms_fenicsx.cli", "modes", str(config), "--out", str(two)])
@@ -191,11 +215,14 @@ def test_two_ranks_give_the_same_cache_as_one(tmp_path):
     for name, g in A.groups.items():
         np.testing.assert_array_equal(B.groups[name].nodes, g.nodes)
         np.testing.assert_allclose(B.groups[name].weights, g.weights, rtol=1e-12)
-    modes_a, modes_b = A.mode_fields(), B.mode_fields()
-    for j in range(A.mode_count):
-        sign = np.sign(np.sum(modes_a[:, :, j] * modes_b[:, :, j]))
-        np.testing.assert_allclose(sign * modes_b[:, :, j], modes_a[:, :, j], rtol=0,
-                                   atol=1e-6 * np.abs(modes_a[:, :, j]).max())
+    # forces at end_x0 and end_xL, the pin's two moments and the drive's, the spin
+    assert len(A.attachment) == 10 and A.attachment == B.attachment
+    shapes_a = A.fields[:, 4:].reshape(len(A.nodes_m), -1, 3)     # (node, mode, direction)
+    shapes_b = B.fields[:, 4:].reshape(len(B.nodes_m), -1, 3)
+    for j in range(shapes_a.shape[1]):
+        sign = np.sign(np.sum(shapes_a[:, j] * shapes_b[:, j]))
+        np.testing.assert_allclose(sign * shapes_b[:, j], shapes_a[:, j], rtol=0,
+                                   atol=1e-6 * np.abs(shapes_a[:, j]).max())
     run = gcms("reduce", str(config), "--out", str(two))
     assert run.returncode == 0, run.stderr
     assert stages(two) == {"mesh": "reused", "modes": "reused", "reduction": "computed"}

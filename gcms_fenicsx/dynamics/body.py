@@ -57,13 +57,19 @@ def group_rows(field_rows: Any, weights: np.ndarray, coords: np.ndarray) -> Grou
     """
     center = weights @ coords
     r = coords - center
-    moment = (r * weights[:, None]).T @ r
-    lam, vecs = np.linalg.eigh(moment)
-    inside = lam > SPAN_TOLERANCE * lam.max() if lam.max() > 0 else np.zeros(3, bool)
-    pinv = (vecs[:, inside] / lam[inside]) @ vecs[:, inside].T
+    span, pinv = group_span((r * weights[:, None]).T @ r)
     weighted = np.asarray(field_rows.T @ (r * weights[:, None]))
     return GroupRows(position=np.asarray(field_rows.T @ weights).ravel(),
-                     affine=weighted @ pinv, span=vecs[:, inside], center_m=center)
+                     affine=weighted @ pinv, span=span, center_m=center)
+
+
+def group_span(moment: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(span, S⁺) of a group's second moment S = Σ w_i r_i r_iᵀ: the orthonormal directions
+    (3, k) its nodes extend in (eigenvalue above SPAN_TOLERANCE of the largest) and the
+    pseudo-inverse of S on them."""
+    lam, vecs = np.linalg.eigh(moment)
+    inside = lam > SPAN_TOLERANCE * lam.max() if lam.max() > 0 else np.zeros(3, bool)
+    return vecs[:, inside], (vecs[:, inside] / lam[inside]) @ vecs[:, inside].T
 
 
 #: Π and Πᵀ are dense nf × nf matrices up to this many fields (8 MB); a larger body (the

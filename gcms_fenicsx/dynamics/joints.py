@@ -183,6 +183,17 @@ def plane_basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return b1, np.cross(axis, b1)
 
 
+def moment_lever(span: np.ndarray, group: str, c: tuple[float, float, float],
+                 turning: tuple[float, float, float] | None) -> np.ndarray:
+    """The lever of a unit moment about c at a group (an attachment load): the one its joint's
+    moment row takes (:func:`lever`); SceneError when the group has none."""
+    d = lever(span, np.asarray(c, float), None if turning is None else np.asarray(turning, float))
+    if d is None:
+        raise SceneError(f"[basis] attachment: group {group!r} cannot take a moment about "
+                         f"{list(c)}: its nodes do not extend perpendicular to it")
+    return d
+
+
 def lever(span: np.ndarray, c: np.ndarray, turning: np.ndarray | None) -> np.ndarray | None:
     """A unit direction d in the group's span with d ⊥ c, or None if the group has none.
 

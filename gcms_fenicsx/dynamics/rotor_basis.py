@@ -16,9 +16,8 @@ from typing import Any
 import numpy as np
 
 from gcms_fenicsx.dynamics.body import Body
-from gcms_fenicsx.dynamics.joints import lever, plane_basis
+from gcms_fenicsx.dynamics.joints import moment_lever, plane_basis
 from gcms_fenicsx.dynamics.rotation import skew
-from gcms_fenicsx.dynamics.scene import SceneError
 
 #: A candidate column is kept when its part independent of the columns kept before it has at
 #: least this fraction of its Mr-norm (the selection's svd_tolerance, docs/design.md §4).
@@ -167,7 +166,8 @@ def generalized_loads(body: Body, loads: Any) -> np.ndarray:
     """Generalized forces (n × k) of attachment unit loads (``config.basis.AttachmentLoad``):
     a force F at a group's mean position is kron(h, F); a moment about c is the force conjugate
     to the group's small rotation about c, kron(H_G d, c × d) for a lever d ⊥ c in the group's
-    span (``joints.lever``, as the joints' moment rows)."""
+    span — the joint's moment row itself (``joints.moment_lever``); the centrifugal load of a
+    spin at 1 rad/s about e is Mr applied to the field (I − e eᵀ)(X − x̄_G)."""
     cols = []
     for load in loads:
         g = body.groups[load.group]
@@ -175,10 +175,10 @@ def generalized_loads(body: Body, loads: Any) -> np.ndarray:
         if load.kind == "force":
             cols.append(np.kron(g.position, direction))
             continue
-        d = lever(g.span, direction, None)
-        if d is None:
-            raise SceneError(f"[basis] attachment: group {load.group!r} cannot take a moment "
-                             f"about {direction.tolist()}: its nodes do not extend "
-                             "perpendicular to it")
+        if load.kind == "centrifugal":
+            radial = body.q0.reshape(-1, 3) - np.outer(body.unit, g.center_m)
+            cols.append(body.mass @ (radial - np.outer(radial @ direction, direction)).ravel())
+            continue
+        d = moment_lever(g.span, load.group, load.direction, load.turning)
         cols.append(np.kron(g.affine @ d, np.cross(direction, d)))
     return np.column_stack(cols) if cols else np.zeros((body.dofs, 0))

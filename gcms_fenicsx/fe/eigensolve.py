@@ -46,6 +46,7 @@ from gcms_fenicsx.fe.factor import (factor_options, inertia_below, inertia_refac
                                     shifted_matrix)
 from gcms_fenicsx.fe.mass import kron_mass_operator, mass_dense, mass_properties
 from gcms_fenicsx.fe.modes import Modes
+from gcms_fenicsx.fe.static_response import static_responses
 from gcms_fenicsx.fe.verification import verify
 from gcms_fenicsx.reduction.spectrum import cut_cluster_warning
 from gcms_fenicsx.runtime.errors import ComputationFailed
@@ -172,27 +173,21 @@ def _run_eps(model: FEModel, nev: int, sigma: float, cfg: ModesConfig,
     return eps
 
 
-def purified(model: FEModel, factor: PETSc.Mat, ritz: np.ndarray,
-             loads: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
-    """Purified Ritz vectors y ← (K − σM)⁻¹ M y, M-normalised, with one multi-RHS solve, and
-    (K − σM)⁻¹ ``loads`` in the same solve.
+def purified(model: FEModel, factor: PETSc.Mat, ritz: np.ndarray) -> np.ndarray:
+    """Purified Ritz vectors y ← (K − σM)⁻¹ M y, M-normalised, with one multi-RHS solve.
 
     ``factor``: a factorisation of K − σM. The shift-invert operator damps the part of a
     Ritz vector's error along eigenvalue λ by (λ₀ − σ)/(λ − σ): SLEPc's eigenvector
     purification, done here for all vectors in one block solve (MUMPS solves 32
     right-hand sides for much less per vector than single solves; docs/design.md §8).
     """
-    block = mass_dense(model, ritz)
-    if loads is not None:
-        block = np.hstack([block, loads])
-    rhs = dense_operand(model.K, block)
+    rhs = dense_operand(model.K, mass_dense(model, ritz))
     out = rhs.duplicate()
     factor.matSolve(rhs, out)
     Y = out.getDenseArray().copy()
     rhs.destroy()
     out.destroy()
-    k = ritz.shape[1]
-    return _m_normalised(model, Y[:, :k]), (Y[:, k:] if loads is not None else None)
+    return _m_normalised(model, Y)
 
 
 def _m_normalised(model: FEModel, Y: np.ndarray) -> np.ndarray:
@@ -208,8 +203,9 @@ def without_rigid(model: FEModel, rigid: np.ndarray, Y: np.ndarray) -> np.ndarra
 @dataclass(frozen=True)
 class KrylovModes:
     """What the Krylov solve returns: wanted elastic pairs (purified), the next eigenvalue, the
-    Sylvester count at the check shift halfway between the two (with its seconds), and
-    (K − σM)⁻¹ of the loads it was given."""
+    Sylvester count at the check shift halfway between the two (with its seconds), and the
+    static responses K u = f' to the self-equilibrated loads it was given
+    (``static_response``), with their iterations and seconds."""
 
     eigenvalues: np.ndarray
     vectors: np.ndarray
@@ -219,6 +215,8 @@ class KrylovModes:
     inertia_count: int
     inertia_seconds: float
     static: np.ndarray | None = None
+    static_iterations: int = 0
+    static_seconds: float = 0.0
 
 
 def krylov_modes(model: FEModel, wanted: int, shift: Shift, rigid: np.ndarray,
@@ -226,8 +224,8 @@ def krylov_modes(model: FEModel, wanted: int, shift: Shift, rigid: np.ndarray,
                  loads: np.ndarray | None = None) -> KrylovModes:
     """The ``wanted`` lowest elastic pairs by shift-invert Krylov–Schur in the M-orthogonal
     complement of ``rigid``, purified and freed of rigid content (module docstring), and the
-    solutions (K − σM)⁻¹ ``loads`` with the same factor, before it is refactorised for the
-    Sylvester count."""
+    static responses to ``loads`` (``static_response``: preconditioned with the same factor),
+    before it is refactorised for the Sylvester count."""
     # one eigenpair past the last wanted one places the Sylvester check in the gap after it;
     # more only lengthen the Krylov basis
     eps = _run_eps(model, wanted + 1, shift.sigma, cfg, rigid, progress)
@@ -248,17 +246,23 @@ def krylov_modes(model: FEModel, wanted: int, shift: Shift, rigid: np.ndarray,
         eps.getEigenvector(int(i), vr)
         ritz[:, j] = vr.array
     ksp = eps.getST().getKSP()
-    elastic, static = purified(model, ksp.getPC().getFactorMatrix(), ritz, loads)
+    factor = ksp.getPC().getFactorMatrix()
+    vectors = without_rigid(model, rigid, purified(model, factor, ritz))
+    eigenvalues = values[order[:wanted]]
+    static, static_iterations, t0 = None, 0, time.perf_counter()
+    if loads is not None:
+        static, static_iterations = static_responses(model, factor, loads, vectors, eigenvalues)
+    static_seconds = time.perf_counter() - t0
     last, following = float(values[order[wanted - 1]]), float(values[order[wanted]])
     check_shift = 0.5 * (last + following)
     t0 = time.perf_counter()
     inertia = inertia_refactorised(ksp, model, shift.sigma, check_shift)
     inertia_seconds = time.perf_counter() - t0
     eps.destroy()
-    return KrylovModes(eigenvalues=values[order[:wanted]],
-                       vectors=without_rigid(model, rigid, elastic), next_eigenvalue=following,
+    return KrylovModes(eigenvalues=eigenvalues, vectors=vectors, next_eigenvalue=following,
                        iterations=its, check_shift=check_shift, inertia_count=inertia,
-                       inertia_seconds=inertia_seconds, static=static)
+                       inertia_seconds=inertia_seconds, static=static,
+                       static_iterations=static_iterations, static_seconds=static_seconds)
 
 
 def wanted_modes(model: FEModel, cfg: ModesConfig, timings: dict[str, float]) -> int:
@@ -298,10 +302,9 @@ def solve_free_free(model: FEModel, cfg: ModesConfig, progress: Progress = quiet
 
     Attachment mode (docs/design.md §3.7): the load relieved of its rigid-body part by the
     inertia forces, f' = f − M R Rᵀ f (R the M-orthonormal rigid modes: Rᵀ f' = 0, a
-    self-equilibrated load), its static response u = (K − σM)⁻¹ f' with the solve's own
-    factor (σ < 0 below every elastic eigenvalue; it shifts u's components along mode k by
-    λ_k/(λ_k − σ), nearly 1 above the lowest modes, which the eigenmodes span anyway), then
-    u − R Rᵀ M u, M-normalised.
+    self-equilibrated load), its static response K u = f' (``static_response``: exact along
+    the computed modes, the rest by conjugate gradients preconditioned with the solve's own
+    factor of K − σM), then u − R Rᵀ M u, M-normalised.
 
     ``cfg.count`` elastic modes, or every elastic mode below ``cfg.max_frequency_hz``
     (counted beforehand with :func:`inertia_below`). ``memory_check(dofs, nodes, wanted)``
@@ -322,7 +325,13 @@ def solve_free_free(model: FEModel, cfg: ModesConfig, progress: Progress = quiet
         loads - mass_dense(model, rigid) @ gram(model.comm, rigid, loads)
     found = krylov_modes(model, wanted, shift, rigid, cfg, progress, relieved)
     timings["inertia_check"] = found.inertia_seconds
-    timings["eigensolve"] = time.perf_counter() - t0 - found.inertia_seconds
+    timings["eigensolve"] = (time.perf_counter() - t0 - found.inertia_seconds
+                             - found.static_seconds)
+    if loads is not None:
+        timings["attachment"] = found.static_seconds
+        progress(f"attachment modes: {loads.shape[1]} static responses, "
+                 f"{found.static_iterations} preconditioned iterations, "
+                 f"{found.static_seconds:.1f} s")
 
     t0 = time.perf_counter()
     vectors = np.hstack([rigid, found.vectors])

@@ -48,6 +48,13 @@ def sparse_factorization(A: scipy.sparse.spmatrix) -> Solve:
     return lu.solve
 
 
+def sparse_kkt_solve(K: scipy.sparse.spmatrix, C: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """[u; λ] of [K Cᵀ; C 0] [u; λ] = rhs by one sparse LU (``dynamics.statics``)."""
+    rows = scipy.sparse.csr_matrix(C)
+    return sparse_factorization(scipy.sparse.bmat([[scipy.sparse.csr_matrix(K), rows.T],
+                                                   [rows, None]]))(rhs)
+
+
 def full_order_body(model: FEModel, groups: dict[str, tuple[np.ndarray, np.ndarray]]) -> Body:
     """The body on all nodes of ``model``, with the node groups of ``node_groups.group_weights``."""
     if model.comm.size != 1:
