@@ -13,7 +13,11 @@ time divided by the reference's largest value.
   (``auto_modes.outputs``), each against the finest and richest run of the sweep (the
   study's mesh, Nm = 20, attachment modes, half the time step, full basis), reported
   separately and as their maximum; that reference's own convergence is stated by comparing
-  it with the same run at the study's time step (``reference_convergence``). The same sweep
+  it with the same run at the study's time step (``reference_convergence``). Runs are
+  compared at their own recorded times, where the reference (recorded at a multiple of them)
+  has samples: a run recorded more coarsely, interpolated to the reference's times, would
+  count its interpolation of the start's transient as error (on the damped scene the
+  reference's own convergence read 10.7 % that way, 1.5 % at common times). The same sweep
   runs again on the scene with stiffness-proportional damping β = 1e-4 s
   (``crankshaft_damped``): the default scene's outputs are vibration its loads' start leaves
   ringing, which no setting resolves; damped, the time step does.
@@ -209,13 +213,13 @@ def crankshaft_rows(case: str, damping: float | None, quick: bool, tmp: Path,
     cfg, reduced, _ = run_chain(scened(dict(finest, time_step=5e-5)), tmp)
     out, _, t, _ = crankshaft_outputs(reduced, cfg, tmp, "reference_h")
     convergence[case] = {"reference": finest, "against_twice_its_time_step":
-                         errors(on_times(out, t, t_ref), reference)}
+                         errors(out, on_times(reference, t_ref, t))}
     rows = []
     for k, s in enumerate(sweep("crankshaft", quick)):
         cfg, reduced, offline = run_chain(scened(s), tmp)
         for basis in BASES:
             out, online, t, dofs = crankshaft_outputs(reduced, cfg, tmp, f"c{k}", basis)
-            e = errors(on_times(out, t, t_ref), reference)
+            e = errors(out, on_times(reference, t_ref, t))
             rows.append(dict(_row(case, cfg, s, basis, dofs, e["maximum"], offline, online),
                              **{name: e[name] for name in OUTPUTS}))
             print(json.dumps(rows[-1]), file=sys.stderr, flush=True)

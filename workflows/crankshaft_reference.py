@@ -1,0 +1,232 @@
+"""The default crankshaft against its full model, reference (a): what every reduced crankshaft
+approximates.
+
+Reference (a) is the same co-rotated linear model on every finite-element DOF (82k on the
+study's mesh, ``references.full_order``, a sparse LU of the iteration matrix). The scene is the
+default one with stiffness-proportional damping β = 1e-4 s (``pareto``'s crankshaft_damped):
+its outputs the 50 µs step resolves, while the default scene's are start-up ringing that no
+setting resolves. Two comparisons:
+
+- statics (``dynamics.statics``): the body held by the scene's joints, drive included, under
+  gravity and the gas forces at t = 0 ("scene") and under the centrifugal load at the drive's
+  3000 rpm ("spin"): the nose's displacement and the bearing reactions of each reduced model
+  against the full model's; with attachment modes the full model's response lies in the
+  basis (docs/design.md §3.7) and they agree to round-off;
+- dynamics: the nose's whirl, the bearing forces and the drive torque over the run
+  (``auto_modes.outputs``), max_t |y − y_ref| / max_t |y_ref|, for Nm = 5, 10, 20 with and
+  without attachment modes, in the full and the rotor basis, and the run ``pareto`` takes
+  as its crankshaft reference (Nm = 20, attachment modes, full basis, half the step).
+
+    python workflows/crankshaft_reference.py [--out docs/crankshaft_reference] [--half-step]
+
+``--half-step`` also runs (a) at h/2 (about 16 minutes more, one core) to state its own
+convergence. Writes OUT.json and OUT.png ((a) and some reduced runs over time) and prints
+the tables recorded in README.md. One BLAS thread; (a) takes about 8 minutes.
+"""
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before NumPy
+
+import argparse
+import json
+import logging
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+from auto_modes import OUTPUTS, errors, outputs  # noqa: E402
+from pareto import crankshaft_outputs, on_times, run_chain, study  # noqa: E402
+
+DAMPING_BETA_S = 1e-4
+MODE_COUNTS = (5, 10, 20)
+NOSE = "end_x0"
+#: pareto's crankshaft reference: the finest and richest run of its sweep
+PARETO_REFERENCE = {"mesh_size": None, "modes": 20, "attachment": "scene", "tolerance": 1e-6,
+                    "time_step": 2.5e-5}
+
+
+def log(message: str) -> None:
+    print(message, file=sys.stderr, flush=True)
+
+
+def damped(s: dict) -> dict:
+    """The study of sweep settings ``s`` with the damped scene."""
+    raw = study("crankshaft", s)
+    raw["scene"] = dict(raw["scene"], damping={"beta": DAMPING_BETA_S})
+    return raw
+
+
+def reference(cfg, folder: Path, time_step_s: float) -> tuple[Any, dict, float]:
+    """(full body, outputs, seconds) of reference (a) at ``time_step_s``."""
+    from dataclasses import replace
+
+    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.dynamics.simulate import simulate_body
+    from gcms_fenicsx.fe.node_groups import group_weights
+    from gcms_fenicsx.references.full_order import full_order_body, sparse_factorization
+
+    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, folder)
+    model = chain.assembly.model
+    full = full_order_body(model, group_weights(chain.body, model.Vs))
+    t0 = time.perf_counter()
+    traj, summary = simulate_body(full, replace(cfg.scene, time_step_s=time_step_s),
+                                  factorize=sparse_factorization, progress=log)
+    if not summary["complete"]:
+        raise SystemExit(f"reference (a) stopped: {summary['message']}")
+    return full, dict(outputs(traj), time=traj.time), time.perf_counter() - t0
+
+
+def static_loads(cfg) -> dict[str, Any]:
+    """Per static load case, body ↦ its load (None: the scene's gravity and loads at t = 0;
+    "spin": the centrifugal load at the drive's angular velocity)."""
+    from gcms_fenicsx.config.basis import AttachmentLoad
+    from gcms_fenicsx.dynamics.rotor_basis import generalized_loads
+
+    drive = cfg.scene.joints[0]
+    unit = AttachmentLoad(drive.group, "centrifugal", drive.axis)
+    return {"scene": lambda body: None,
+            "spin": lambda body: (drive.drive.angular_velocity ** 2
+                                  * generalized_loads(body, [unit])[:, 0])}
+
+
+def full_statics(full, cfg) -> dict[str, Any]:
+    """The full model's static responses (``dynamics.statics``) per load case."""
+    from gcms_fenicsx.dynamics.factorization import mass_factorization
+    from gcms_fenicsx.dynamics.statics import held_static
+    from gcms_fenicsx.references.full_order import sparse_factorization, sparse_kkt_solve
+
+    mass_solve = mass_factorization(full, sparse_factorization)
+    return {case: held_static(full, cfg.scene, load(full), mass_solve, sparse_kkt_solve)
+            for case, load in static_loads(cfg).items()}
+
+
+def statics(full, exact: dict[str, Any], reduced, cfg) -> dict[str, dict[str, float]]:
+    """Per load case, the reduced model's nose displacement and bearing reactions against the
+    full model's (``exact``): max |difference| / |full| (nose: its Euclidean norm; reactions:
+    the largest)."""
+    from gcms_fenicsx.dynamics.statics import held_static
+
+    out = {}
+    for case, load in static_loads(cfg).items():
+        a, r = exact[case], held_static(reduced, cfg.scene, load(reduced))
+        nose = a.group_displacement(full, NOSE)
+        out[case] = {
+            "nose_m": nose.tolist(),
+            "nose": float(np.abs(r.group_displacement(reduced, NOSE) - nose).max()
+                          / np.linalg.norm(nose)),
+            "reactions": float(np.abs(r.reactions - a.reactions).max()
+                               / np.abs(a.reactions).max())}
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=Path("docs/crankshaft_reference"))
+    parser.add_argument("--half-step", action="store_true")
+    args = parser.parse_args()
+    logging.disable(logging.INFO)
+    from gcms_fenicsx.config.study import parse_config
+    from gcms_fenicsx.dynamics.body import body_from_reduced
+
+    rows: list[dict] = []
+    curves: dict[str, Any] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        base = {"mesh_size": None, "modes": 1, "attachment": "none", "tolerance": 1e-6,
+                "time_step": 5e-5}
+        cfg = parse_config(damped(base))
+        full, ref, seconds = reference(cfg, tmp, cfg.scene.time_step_s)
+        log(f"reference (a): {full.dofs} DOFs, {seconds:.0f} s")
+        exact = full_statics(full, cfg)
+        result: dict[str, Any] = {"reference": {"dofs": full.dofs, "seconds": seconds,
+                                                "time_step": cfg.scene.time_step_s,
+                                                "damping_beta_s": DAMPING_BETA_S}}
+        if args.half_step:
+            _, half, seconds_half = reference(cfg, tmp, cfg.scene.time_step_s / 2)
+            result["reference"]["against_half_step"] = errors(
+                ref, on_times({k: half[k] for k in OUTPUTS}, half["time"], ref["time"]))
+            result["reference"]["half_step_seconds"] = seconds_half
+        curves["time"] = ref["time"]
+        curves["a"] = ref
+        settings = [dict(base, modes=nm, attachment=att) for att in ("none", "scene")
+                    for nm in MODE_COUNTS] + [PARETO_REFERENCE]
+        for s in settings:
+            cfg, reduced, offline = run_chain(damped(s), tmp)
+            static = statics(full, exact, body_from_reduced(reduced), cfg)
+            for basis in ("full", "rotor"):
+                if s is PARETO_REFERENCE and basis == "rotor":
+                    continue
+                tag = f"{s['modes']}{s['attachment']}{s['time_step']}{basis}"
+                out, online, t, dofs = crankshaft_outputs(reduced, cfg, tmp, tag, basis)
+                out = on_times(out, t, ref["time"])
+                row = dict(s, basis=basis, coordinates=dofs, offline_s=offline,
+                           online_s=online, error=errors(out, ref), static=static)
+                rows.append(row)
+                curves[f"{s['modes']} {s['attachment']} {basis} {s['time_step']:g}"] = out
+                log(json.dumps({k: v for k, v in row.items() if k != "static"}))
+    result["rows"] = rows
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.with_suffix(".json").write_text(json.dumps(result, indent=1))
+    plot(curves, args.out.with_suffix(".png"))
+    print(tables(result))
+
+
+def tables(result: dict) -> str:
+    """The dynamics table (per row: coordinates, the three outputs' errors, online seconds)
+    and the statics table (per reduced model)."""
+    lines = ["| Nm | attachment | basis | h µs | coordinates | nose whirl | bearing forces | "
+             "drive torque | simulation s |", "|---|---|---|---|---|---|---|---|---|"]
+    for r in result["rows"]:
+        e = r["error"]
+        lines.append(f"| {r['modes']} | {r['attachment']} | {r['basis']} | "
+                     f"{r['time_step'] * 1e6:g} | {r['coordinates']} | "
+                     + " | ".join(f"{100 * e[k]:.2f} %" for k in OUTPUTS)
+                     + f" | {r['online_s']:.2f} |")
+    lines += ["", "| Nm | attachment | static nose (scene loads) | reactions | "
+              "static nose (spin) | reactions |", "|---|---|---|---|---|---|"]
+    for r in result["rows"]:
+        if r["basis"] != "full" or r["time_step"] != 5e-5:
+            continue
+        st = r["static"]
+        lines.append(f"| {r['modes']} | {r['attachment']} | " + " | ".join(
+            f"{st[c][k]:.1e}" for c in ("scene", "spin") for k in ("nose", "reactions")) + " |")
+    return "\n".join(lines)
+
+
+def plot(curves: dict, path: Path) -> None:
+    """The nose's whirl (z) and the front bearing's vertical force over time: (a) and the
+    full basis at Nm = 10 and 20 with attachment modes and at Nm = 10 without."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t = curves["time"] * 1e3
+    fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    shown = [("a", "reference (a), full model", "k", 2.0),
+             ("10 none full 5e-05", "Nm = 10", "tab:red", 1.0),
+             ("10 scene full 5e-05", "Nm = 10 + attachment", "tab:blue", 1.0),
+             ("20 scene full 5e-05", "Nm = 20 + attachment", "tab:green", 1.0)]
+    for key, label, color, width in shown:
+        axes[0].plot(t, curves[key]["nose whirl"][:, 1] * 1e9, color=color, lw=width,
+                     label=label)
+        axes[1].plot(t, curves[key]["bearing forces"][:, 2], color=color, lw=width)
+    axes[0].set_ylabel("nose z (nm)")
+    axes[1].set_ylabel("front bearing force z (N)")
+    axes[1].set_xlabel("time (ms)")
+    axes[0].legend(fontsize=8)
+    axes[0].set_title("Default crankshaft, β = 1e-4 s: reduced models against the full model")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    main()
