@@ -71,14 +71,13 @@ def recorded_rows(steps: int, every: int) -> int:
     return steps // every + 1 + (1 if steps % every else 0)
 
 
-def record_plan(body: Body, constraints: Constraints, scene: Scene,
-                dofs: int | None = None) -> RecordPlan:
-    """The plan of what ``scene`` records on ``body`` with ``constraints``, in ``dofs``
-    coordinates (default: the body's)."""
+def record_plan(body: Body, constraints: Constraints, scene: Scene) -> RecordPlan:
+    """The plan of what ``scene`` records on ``body`` (the full basis) with
+    ``constraints``."""
     out, steps = scene.outputs, scene.steps
     layout = series_layout(out.groups, out.energy,
                            constraints.count if out.constraint_forces else 0,
-                           (dofs or body.dofs) if out.coordinates else 0)
+                           body.dofs if out.coordinates else 0)
     rows = recorded_rows(steps, out.every)
     snapshots = frozenset(min(steps, int(round(t / scene.time_step_s))) for t in out.field_times)
     return RecordPlan(layout=layout, steps=steps, rows=rows, snapshot_steps=snapshots,
@@ -139,8 +138,8 @@ class Recorder:
     (docs/integrator_profile.md).
 
     ``lift``: B when the run's coordinates are p with q = B p (the rotor basis): the rows
-    hold p (``coordinates/q`` records p), and the series of ``body`` (the full basis) are taken
-    at B p.
+    hold p, and every series, ``coordinates/q`` and ``coordinates/v`` too, is the full basis
+    ``body``'s, taken at B p (so results.h5 reads with reduced.h5 whatever the basis).
     """
 
     def __init__(self, body: Body, constraints: Constraints, forces: ExternalForces,
@@ -220,7 +219,7 @@ class Recorder:
         kinetic, block["momentum/linear"], block["momentum/angular"] = body.momenta(Q, V)
         block[MULTIPLIERS] = self.multipliers[:k]
         if out.coordinates:
-            block["coordinates/q"], block["coordinates/v"] = self.qv[:k, 0], self.qv[:k, 1]
+            block["coordinates/q"], block["coordinates/v"] = qv[:, 0], qv[:, 1]
         if self.energy:
             elastic, w = scalars[:, 2], scalars[:, 3:]
             gravity = self.forces.gravity_potential(self.qv[:k, 0])

@@ -218,7 +218,7 @@ def prepare_run(body: Body | RotorBody, scene: Scene, capacity: Capacity,
     if constraints.dropped:
         progress(f"joints: {len(constraints.dropped)} constraint rows dropped, implied by the "
                  f"rows of earlier joints: {_rows_text(constraints)}")
-    plan = record_plan(full, constraints, scene, body.dofs)
+    plan = record_plan(full, constraints, scene)
     check_capacity(plan, capacity, scene)
     progress(f"simulate: {plan.steps} steps of {scene.time_step_s:g} s, {body.dofs} "
              f"coordinates, {constraints.count} constraint rows; {plan.rows} recorded rows and "

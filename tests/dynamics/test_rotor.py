@@ -169,6 +169,21 @@ def test_pendulum_in_the_rotor_basis_follows_the_full_basis(beam6_model):
     assert np.abs(rotor - full).max() / excursion < 0.1 * discretisation
 
 
+def test_recorded_coordinates_are_the_full_basis_in_either_basis(beam6_model, beam6_body):
+    """results' coordinates/q|v hold the full basis's q = B p in a rotor run (so they read with
+    reduced.h5's fields): as many as the full basis's, and the recorded group position is
+    Qᵀ h of them to round-off."""
+    traj, summary = simulate(beam6_model, parse_scene({
+        "end_time": 0.02, "time_step": 1e-3, "gravity": [0.0, -9.81, 0.0], "joints": [PIN],
+        "outputs": {"groups": ["end_xL"], "coordinates": True}}), basis="rotor")
+    assert summary["basis"] == "rotor" and summary["reduced_dofs"] < beam6_body.dofs
+    q = traj.coordinates["q"]
+    assert q.shape[1] == beam6_body.dofs
+    h = beam6_body.groups["end_xL"].position
+    tip = np.einsum("f,tfk->tk", h, q.reshape(len(q), -1, 3))
+    np.testing.assert_allclose(tip, traj.groups["end_xL"]["position"], rtol=0, atol=1e-12)
+
+
 @pytest.mark.parametrize("joints, kind, expected", [
     ([PIN], "auto", "rotor"),
     ([PIN, dict(PIN, name="other", group="end_xL", axis=[0.0, 0.0, -2.0])], "auto", "rotor"),
