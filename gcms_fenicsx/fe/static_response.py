@@ -57,7 +57,7 @@ def static_responses(model: FEModel, factor: PETSc.Mat, loads: np.ndarray,
     rz = _column_dot(comm, r, z)
     for iteration in range(1, MAX_ITERATIONS + 1):
         Kp = mat_dense(model.K, p)
-        alpha = rz / _column_dot(comm, p, Kp)
+        alpha = _ratio(rz, _column_dot(comm, p, Kp))
         U += p * alpha
         r -= Kp * alpha
         error = _backward_error(model, r, U)
@@ -65,7 +65,7 @@ def static_responses(model: FEModel, factor: PETSc.Mat, loads: np.ndarray,
             return along + U, iteration
         z = _precondition(model, factor, r)
         rz, previous = _column_dot(comm, r, z), rz
-        p = z + p * (rz / previous)
+        p = z + p * _ratio(rz, previous)
     raise StaticResponseError(
         f"attachment modes: the static responses did not converge in {MAX_ITERATIONS} "
         f"preconditioned iterations (backward error {float(error.max()):.2e}, tolerance "
@@ -89,6 +89,12 @@ def _precondition(model: FEModel, factor: PETSc.Mat, R: np.ndarray) -> np.ndarra
     rhs.destroy()
     out.destroy()
     return Z
+
+
+def _ratio(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a / b per column, 0 where b is not positive (a column already solved: its residual,
+    and so its search direction, is zero)."""
+    return np.divide(a, b, out=np.zeros_like(a), where=b > 0.0)
 
 
 def _column_dot(comm: MPI.Comm, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
