@@ -110,12 +110,9 @@ def static_loads(cfg) -> dict[str, Any]:
 
 def full_statics(full, cfg) -> dict[str, Any]:
     """The full model's static responses (``dynamics.statics``) per load case."""
-    from gcms_fenicsx.dynamics.factorization import mass_factorization
-    from gcms_fenicsx.dynamics.statics import held_static
-    from gcms_fenicsx.references.full_order import sparse_factorization, sparse_kkt_solve
+    from gcms_fenicsx.references.full_order import full_held_static
 
-    mass_solve = mass_factorization(full, sparse_factorization)
-    return {case: held_static(full, cfg.scene, load(full), mass_solve, sparse_kkt_solve)
+    return {case: full_held_static(full, cfg.scene, load(full))
             for case, load in static_loads(cfg).items()}
 
 

@@ -95,17 +95,12 @@ def attachment_loads(cfg: BasisConfig, scene: Scene | None) -> tuple[AttachmentL
 
 
 def _moments(joint: Any) -> list[AttachmentLoad]:
-    """The unit moments of a joint's moment rows, in the frame and with the levers those rows
-    take (``dynamics.joints``: the axes b1, b2 ⊥ the joint's axis, then the axis; the first two
-    blind to turning about the axis when the joint turns)."""
-    if joint.type == "spherical":
-        return []
+    """The unit moments of a joint's moment rows (``Joint.moment_rows``), in the frame and with
+    the levers those rows take (``dynamics.joints``)."""
     axis = AXES[0] if joint.axis is None else joint.axis
     frame = (*_perpendicular(axis), axis) if joint.axis is not None else AXES
-    turns = joint.type == "revolute" or joint.drive is not None
-    held = [0, 1] if joint.type == "revolute" and joint.drive is None else [0, 1, 2]
-    return [AttachmentLoad(joint.group, "moment", frame[k], axis if turns and k < 2 else None)
-            for k in held]
+    return [AttachmentLoad(joint.group, "moment", frame[k], axis if blind else None)
+            for k, blind in joint.moment_rows()]
 
 
 def _perpendicular(e: tuple[float, float, float]) -> tuple[tuple[float, float, float], ...]:

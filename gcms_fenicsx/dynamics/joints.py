@@ -264,14 +264,11 @@ def _all_rows(body: Body, joints: tuple[Joint, ...], q_start: np.ndarray) -> Con
             index.append(start)
             directions.append(np.eye(3)[k])
             rows.append(RowInfo(joint.name, "force", tuple(np.eye(3)[k]), "N"))
-        if joint.type == "spherical":
-            continue
         axis = np.eye(3)[0] if joint.axis is None else np.asarray(joint.axis)
         frame = (*plane_basis(axis), axis) if joint.axis is not None else tuple(np.eye(3))
-        turns = joint.type == "revolute" or joint.drive is not None
-        for k in [0, 1] if joint.type == "revolute" and joint.drive is None else [0, 1, 2]:
+        for k, blind in joint.moment_rows():
             c = frame[k]
-            d = lever(g.span, c, axis if turns and k < 2 else None)
+            d = lever(g.span, c, axis if blind else None)
             if d is None:
                 raise SceneError(
                     f"joint {joint.name!r}: group {joint.group!r} cannot hold a rotation about "

@@ -125,6 +125,18 @@ class Joint:
     axis: tuple[float, float, float] | None = None
     drive: Drive | None = None
 
+    def moment_rows(self) -> tuple[tuple[int, bool], ...]:
+        """The joint's moment rows as (k, blind to turning): k indexes its frame (b1, b2 ⊥ the
+        axis, then the axis; x, y, z without an axis), and the row's lever must not see the
+        body turn about the axis (a revolute or driven joint's first two rows). None for a
+        spherical joint; a revolute joint holds two, a fixed or driven one three, the third
+        the drive's when driven (``joints``, and the attachment loads of ``config.basis``)."""
+        if self.type == "spherical":
+            return ()
+        turns = self.type == "revolute" or self.drive is not None
+        held = (0, 1) if self.type == "revolute" and self.drive is None else (0, 1, 2)
+        return tuple((k, turns and k < 2) for k in held)
+
 
 @dataclass(frozen=True)
 class Load:

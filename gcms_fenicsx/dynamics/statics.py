@@ -12,7 +12,7 @@ order, ``joints.Constraints.rows``). A reduced body gives the Galerkin approxima
 full model's u; when the full model's u lies in its span (the reactions and loads are
 combinations of its attachment loads), the two agree to round-off. The solve goes through a
 ``kkt_solve`` callable: dense here (NumPy), sparse for the full model
-(``references.full_order.sparse_kkt_solve``).
+(``references.full_order.full_held_static``).
 """
 from __future__ import annotations
 
@@ -36,6 +36,8 @@ def dense_kkt_solve(K: Any, C: np.ndarray, rhs: np.ndarray) -> np.ndarray:
 
 
 class HeldStatic(NamedTuple):
+    """The displacement and the reactions of a held body."""
+
     displacement: np.ndarray    # u (n,)
     reactions: np.ndarray       # λ (m,), the rows' multipliers
 

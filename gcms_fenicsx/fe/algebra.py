@@ -31,6 +31,18 @@ def mat_dense(A: PETSc.Mat, X: np.ndarray) -> np.ndarray:
     return out
 
 
+def factor_solve(A: PETSc.Mat, factor: PETSc.Mat, X: np.ndarray) -> np.ndarray:
+    """F⁻¹ X for X holding this rank's owned rows of A's columns, one multi-RHS solve with the
+    factorisation ``factor`` of a matrix laid out like A."""
+    rhs = dense_operand(A, X)
+    out = rhs.duplicate()
+    factor.matSolve(rhs, out)
+    Y = out.getDenseArray().copy()
+    rhs.destroy()
+    out.destroy()
+    return Y
+
+
 def rows_at(comm: PETSc.Comm, X: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """Rows of the row-distributed X (this rank's owned rows, in rank order) at global
     row numbers ``rows``, wherever they are owned. Collective; a rank may ask for none."""

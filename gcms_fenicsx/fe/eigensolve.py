@@ -40,7 +40,7 @@ from slepc4py import SLEPc
 
 from gcms_fenicsx.config.modes import ModesConfig
 from gcms_fenicsx.config.table import ConfigError
-from gcms_fenicsx.fe.algebra import dense_operand, gram, mat_dense
+from gcms_fenicsx.fe.algebra import factor_solve, gram, mat_dense
 from gcms_fenicsx.fe.assembly import FEModel
 from gcms_fenicsx.fe.factor import (factor_options, inertia_below, inertia_refactorised,
                                     shifted_matrix)
@@ -181,13 +181,7 @@ def purified(model: FEModel, factor: PETSc.Mat, ritz: np.ndarray) -> np.ndarray:
     purification, done here for all vectors in one block solve (MUMPS solves 32
     right-hand sides for much less per vector than single solves; docs/design.md §8).
     """
-    rhs = dense_operand(model.K, mass_dense(model, ritz))
-    out = rhs.duplicate()
-    factor.matSolve(rhs, out)
-    Y = out.getDenseArray().copy()
-    rhs.destroy()
-    out.destroy()
-    return _m_normalised(model, Y)
+    return _m_normalised(model, factor_solve(model.K, factor, mass_dense(model, ritz)))
 
 
 def _m_normalised(model: FEModel, Y: np.ndarray) -> np.ndarray:

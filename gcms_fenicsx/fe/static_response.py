@@ -22,7 +22,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from gcms_fenicsx.fe.algebra import dense_operand, gram, magnitude_product, mat_dense
+from gcms_fenicsx.fe.algebra import factor_solve, gram, magnitude_product, mat_dense
 from gcms_fenicsx.fe.assembly import FEModel
 from gcms_fenicsx.fe.mass import mass_dense
 from gcms_fenicsx.runtime.errors import ComputationFailed
@@ -52,7 +52,7 @@ def static_responses(model: FEModel, factor: PETSc.Mat, loads: np.ndarray,
     rhs = loads - mass_dense(model, modes) @ coefficients       # f''
     U = np.zeros_like(rhs)
     r = rhs.copy()
-    z = _precondition(model, factor, r)
+    z = factor_solve(model.K, factor, r)
     p = z.copy()
     rz = _column_dot(comm, r, z)
     for iteration in range(1, MAX_ITERATIONS + 1):
@@ -63,7 +63,7 @@ def static_responses(model: FEModel, factor: PETSc.Mat, loads: np.ndarray,
         error = _backward_error(model, r, U)
         if np.all(error <= BACKWARD_TOLERANCE):
             return along + U, iteration
-        z = _precondition(model, factor, r)
+        z = factor_solve(model.K, factor, r)
         rz, previous = _column_dot(comm, r, z), rz
         p = z + p * _ratio(rz, previous)
     raise StaticResponseError(
@@ -78,17 +78,6 @@ def _backward_error(model: FEModel, r: np.ndarray, U: np.ndarray) -> np.ndarray:
     bound = _column_dot(model.comm, magnitude, magnitude)
     bound[bound == 0.0] = 1.0
     return np.sqrt(_column_dot(model.comm, r, r) / bound)
-
-
-def _precondition(model: FEModel, factor: PETSc.Mat, R: np.ndarray) -> np.ndarray:
-    """(K − σM)⁻¹ R, one block solve with the eigen-solve's factor."""
-    rhs = dense_operand(model.K, R)
-    out = rhs.duplicate()
-    factor.matSolve(rhs, out)
-    Z = out.getDenseArray().copy()
-    rhs.destroy()
-    out.destroy()
-    return Z
 
 
 def _ratio(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -25,7 +25,9 @@ from dolfinx.fem.petsc import assemble_vector
 from petsc4py import PETSc
 
 from gcms_fenicsx.dynamics.body import Body, group_rows, make_body
-from gcms_fenicsx.dynamics.factorization import Solve
+from gcms_fenicsx.dynamics.factorization import Solve, mass_factorization
+from gcms_fenicsx.dynamics.scene import Scene
+from gcms_fenicsx.dynamics.statics import HeldStatic, held_static
 from gcms_fenicsx.dynamics.rotation import polar
 from gcms_fenicsx.fe.assembly import FEModel
 from gcms_fenicsx.fe.mass import mass_properties
@@ -48,11 +50,16 @@ def sparse_factorization(A: scipy.sparse.spmatrix) -> Solve:
     return lu.solve
 
 
-def sparse_kkt_solve(K: scipy.sparse.spmatrix, C: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """[u; λ] of [K Cᵀ; C 0] [u; λ] = rhs by one sparse LU (``dynamics.statics``)."""
-    rows = scipy.sparse.csr_matrix(C)
-    return sparse_factorization(scipy.sparse.bmat([[scipy.sparse.csr_matrix(K), rows.T],
-                                                   [rows, None]]))(rhs)
+def full_held_static(full: Body, scene: Scene, load: np.ndarray | None = None) -> HeldStatic:
+    """``dynamics.statics.held_static`` of the full model: its joint rows chosen with a sparse
+    LU of M, the bordered system [K Cᵀ; C 0] solved with one sparse LU."""
+    def kkt_solve(K: scipy.sparse.spmatrix, C: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+        rows = scipy.sparse.csr_matrix(C)
+        return sparse_factorization(scipy.sparse.bmat([[scipy.sparse.csr_matrix(K), rows.T],
+                                                       [rows, None]]))(rhs)
+
+    return held_static(full, scene, load, mass_factorization(full, sparse_factorization),
+                       kkt_solve)
 
 
 def full_order_body(model: FEModel, groups: dict[str, tuple[np.ndarray, np.ndarray]]) -> Body:
