@@ -153,9 +153,30 @@ def simulate_model(reduced: Path, config: Path, out: Path, progress: Progress = 
     if not model.checksummed:
         progress(f"note: {reduced} was written before content checksums (schema "
                  f"{model.schema_version}); its contents cannot be verified")
+    other = other_study_note(cfg, model)
+    if other:
+        progress(f"note: {reduced} {other}; it is simulated as it is")
     with staged_output(out, owns=SIMULATION_FILES) as folder:
         summary = scene_files(cfg, model, folder, progress, plots=False)
     return finished([], summary)
+
+
+def other_study_note(cfg: StudyConfig, model: ReducedModel) -> str | None:
+    """How a reduced model differs from the one ``gcms reduce`` makes of the study (its input
+    hash is another's; the standalone integrator runs it all the same), or None: in
+    particular when the study asks for attachment modes (``[basis] attachment``, "auto" with
+    a scene) that the model does not hold."""
+    if not model.input_hash or model.input_hash in (cfg.reduced_key(),
+                                                    cfg.reduced_key(svk=True)):
+        return None
+    text = ("was made from other inputs than this study's (its input hash differs: "
+            "[geometry], [mesh], [material], [modes], [selection] or [basis] attachment)")
+    if cfg.modes.attachment and not any(n.startswith("att") for n in model.field_names):
+        text += (f"; it holds no attachment modes, which [basis] attachment = "
+                 f"{cfg.basis.attachment!r} asks for at the scene's joints and loads (without "
+                 "them a held body's response can be far from its full model: README, "
+                 "Attachment modes)")
+    return text
 
 
 # -- gcms run -----------------------------------------------------------------------------

@@ -2,7 +2,10 @@
 study must give the same hash across versions of the code that do not change its meaning."""
 from __future__ import annotations
 
-from gcms_fenicsx.config.study import REDUCED_MODEL_TABLES, load_config, parse_config
+import tomllib
+
+from gcms_fenicsx.config.study import (REDUCED_MODEL_TABLES, default_config_text, load_config,
+                                       parse_config)
 
 #: Hashes recorded with the code of 2026-11-24 (d2b8c1b), before the package was reorganised
 #: into config/, fe/, reduction/, files/: reduced.h5 files written then are still reused.
@@ -11,7 +14,13 @@ SLENDER_BEAM_HASH = "c8b2fc00e98ec1c6c3b32b46b50c972a6bcf7b04e9d1e748ff8102b21f6
 
 
 def test_the_input_hash_of_a_study_is_stable():
-    assert load_config(None).digest(*REDUCED_MODEL_TABLES) == DEFAULT_STUDY_HASH
+    """The default study without attachment modes means what it meant then; with the default
+    ``[basis] attachment = "auto"`` its scene adds them, so its reduced model, and its hash,
+    differ (a file cached without them is not reused for it)."""
+    raw = tomllib.loads(default_config_text())
+    plain = parse_config(dict(raw, basis={"attachment": "none"}))
+    assert plain.digest(*REDUCED_MODEL_TABLES) == DEFAULT_STUDY_HASH
+    assert load_config(None).digest(*REDUCED_MODEL_TABLES) != DEFAULT_STUDY_HASH
     beam = parse_config({"geometry": {"kind": "beam", "section": "square", "side": 0.01,
                                       "length": 2.0},
                          "mesh": {"order": 2}, "modes": {"count": 6}})
@@ -19,8 +28,13 @@ def test_the_input_hash_of_a_study_is_stable():
 
 
 def test_the_hash_follows_the_tables_it_covers():
-    """A changed upstream table changes the hash; a changed [scene] does not."""
-    base = load_config(None)
+    """A changed upstream table changes the hash; a [scene] only through the attachment modes
+    it asks for (its joints and loads), not its times."""
+    raw = tomllib.loads(default_config_text())
+    base = parse_config(dict(raw, basis={"attachment": "none"}))
+    longer = parse_config(dict(raw, scene=dict(raw["scene"], end_time=0.2)))
+    assert (longer.digest(*REDUCED_MODEL_TABLES)
+            == load_config(None).digest(*REDUCED_MODEL_TABLES))
     stiffer = parse_config({"geometry": {"kind": "crankshaft", "throws": 4},
                             "mesh": {"order": 2}, "material": {"E": 211e9},
                             "modes": {"count": 10}})
@@ -34,11 +48,9 @@ def test_auto_count_takes_the_band_of_the_scene():
     """count = "auto": twice the highest excitation (harmonic load + drive speed), capped by
     what the step resolves (ten steps per period); refused without a scene."""
     import math
-    import tomllib
 
     import pytest
 
-    from gcms_fenicsx.config.study import default_config_text
     from gcms_fenicsx.config.table import ConfigError
 
     raw = tomllib.loads(default_config_text())
@@ -55,3 +67,31 @@ def test_auto_count_takes_the_band_of_the_scene():
         parse_config(dict(no_scene, modes={"count": "auto"}))
     with pytest.raises(ConfigError, match='integer ≥ 1 or "auto"'):
         parse_config(dict(raw, modes={"count": "all"}))
+
+
+def test_attachment_auto_follows_the_scene():
+    """[basis] attachment = "auto" (the default) is "scene" in a study with a scene and "none"
+    without one; an explicit "scene" without a scene is refused naming the key."""
+    import pytest
+
+    from gcms_fenicsx.config.basis import attachment_loads, parse_basis
+    from gcms_fenicsx.config.table import ConfigError
+
+    raw = tomllib.loads(default_config_text())
+    default = load_config(None)
+    assert default.basis.attachment == "auto"
+    scene = parse_config(dict(raw, basis={"attachment": "scene"}))
+    assert default.modes.attachment == scene.modes.attachment
+    # the default scene: 3 forces at each bearing and crank pin, 2 moments at each bearing,
+    # the drive's moment, the spin's centrifugal load
+    kinds = [load.kind for load in default.modes.attachment]
+    assert (kinds.count("force"), kinds.count("moment"), kinds.count("centrifugal")) == (
+        3 * (2 + 4), 2 * 2 + 1, 1)
+    assert parse_config(dict(raw, basis={"attachment": "none"})).modes.attachment is None
+    no_scene = {k: v for k, v in raw.items() if k != "scene"}
+    assert parse_config(no_scene).modes.attachment is None
+    assert attachment_loads(parse_basis(None), None) == ()
+    with pytest.raises(ConfigError, match=r"\[basis\] attachment.*needs a \[scene\]"):
+        parse_config(dict(no_scene, basis={"attachment": "scene"}))
+    with pytest.raises(ConfigError, match="'auto', 'none', 'scene'"):
+        parse_config(dict(raw, basis={"attachment": "scenes"}))

@@ -257,7 +257,7 @@ def test_attachment_modes_are_fields_of_the_cached_basis(tmp_path):
     config, out = tmp_path / "study.toml", tmp_path / "out"
     config.write_text(beam_study(6) + SCENE)
     assert gcms("reduce", str(config), "--out", str(out)).returncode == 0
-    config.write_text(beam_study(6) + SCENE + '\n[basis]\nattachment = "scene"\n')
+    config.write_text(beam_study(6) + SCENE.replace('"none"', '"scene"'))
     run = gcms("reduce", str(config), "--out", str(out))
     assert run.returncode == 0, run.stderr
     assert stages(out)["modes"] == "computed"

@@ -31,6 +31,10 @@ from typing import Any
 
 REFERENCE_MODES = 20
 OUTPUTS = ("nose whirl", "bearing forces", "drive torque")
+#: The errors are also given from this time on: the first recorded sample holds the
+#: multipliers consistent with loads applied at once (index 3), which a reduced body spreads
+#: over its modes and the full model keeps local (0 at its bearings), not the dynamics.
+START_S = 1e-3
 
 
 def outputs(results: Path | Any) -> dict[str, Any]:
@@ -56,6 +60,12 @@ def errors(run: dict, reference: dict) -> dict[str, float]:
     return dict(out, maximum=max(out.values()))
 
 
+def after_start(out: dict, time: Any) -> dict:
+    """The outputs from START_S on."""
+    late = time >= START_S
+    return {k: out[k][late] for k in OUTPUTS}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("docs/auto_modes"))
@@ -69,7 +79,7 @@ def main() -> None:
     from gcms_fenicsx.config.study import default_config_text, parse_config
     from gcms_fenicsx.dynamics.simulate import simulate_to_file
 
-    raw = tomllib.loads(default_config_text())
+    raw = dict(tomllib.loads(default_config_text()), basis={"attachment": "none"})
     cfg = parse_config(raw)
     auto = parse_config(dict(raw, modes={"count": "auto"}))
     band = auto.modes.band

@@ -68,7 +68,8 @@ def bodies():
     from gcms_fenicsx.reduction.reduce import ReductionError
     from gcms_fenicsx.references import pendulum
 
-    cfg = parse_config(dict(pendulum.STUDY, modes={"count": max(MODE_COUNTS)}))
+    cfg = parse_config(dict(pendulum.STUDY, modes={"count": max(MODE_COUNTS)},
+                            basis={"attachment": "none"}))
     with tempfile.TemporaryDirectory() as tmp:
         body_mesh = pipeline.body_mesh(pipeline.mesh_stage(cfg.geometry, cfg.mesh, Path(tmp)))
     none = SelectionConfig(cosine_tolerance=0.0, svd_tolerance=0.0, orthonormalize=False)
@@ -205,7 +206,7 @@ def default_scene_model(folder: Path) -> tuple[Path, int]:
     from gcms_fenicsx.config.study import default_config_text, parse_config
     from gcms_fenicsx.files.reduced_model import write_reduced
 
-    cfg = parse_config(tomllib.loads(default_config_text()))
+    cfg = parse_config(dict(tomllib.loads(default_config_text()), basis={"attachment": "none"}))
     chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, folder)
     reduction = pipeline.reduction_stage(
         pipeline.basis_stage(chain.assembly.model, chain.modes, chain.body), cfg.selection)

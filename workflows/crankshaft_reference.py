@@ -43,14 +43,10 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from auto_modes import OUTPUTS, errors, outputs  # noqa: E402
+from auto_modes import OUTPUTS, START_S, after_start, errors, outputs  # noqa: E402
 from pareto import crankshaft_outputs, on_times, run_chain, study  # noqa: E402
 
 DAMPING_BETA_S = 1e-4
-#: The errors are also given from this time on: the first recorded sample holds the
-#: multipliers consistent with loads applied at once (index 3), which a reduced body spreads
-#: over its modes and the full model keeps local (0 at its bearings), not the dynamics.
-START_S = 1e-3
 MODE_COUNTS = (5, 10, 20)
 NOSE = "end_x0"
 #: pareto's crankshaft reference: the finest and richest run of its sweep
@@ -87,12 +83,6 @@ def reference(cfg, folder: Path, time_step_s: float) -> tuple[Any, dict, float]:
     if not summary["complete"]:
         raise SystemExit(f"reference (a) stopped: {summary['message']}")
     return full, dict(outputs(traj), time=traj.time), time.perf_counter() - t0
-
-
-def after_start(out: dict, time: np.ndarray) -> dict:
-    """The outputs from START_S on."""
-    late = time >= START_S
-    return {k: out[k][late] for k in OUTPUTS}
 
 
 def static_loads(cfg) -> dict[str, Any]:

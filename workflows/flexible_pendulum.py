@@ -72,7 +72,7 @@ def setup(quick: bool):
     from gcms_fenicsx.references import pendulum
 
     study = dict(pendulum.STUDY, modes={"count": max(MODE_COUNTS)})
-    cfg = parse_config(study, "flexible pendulum")
+    cfg = parse_config(dict(study, basis={"attachment": "none"}), "flexible pendulum")
     attached = parse_config(dict(study, basis={"attachment": "scene"}), "flexible pendulum")
     with tempfile.TemporaryDirectory() as tmp:
         body_mesh = pipeline.body_mesh(pipeline.mesh_stage(cfg.geometry, cfg.mesh, Path(tmp)))

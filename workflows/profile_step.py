@@ -227,7 +227,8 @@ def models(folder: Path) -> dict[str, Path]:
     from gcms_fenicsx.files.reduced_model import write_reduced
     from gcms_fenicsx.references import pendulum
 
-    cfg = parse_config(dict(pendulum.STUDY, modes={"count": max(MODE_COUNTS)}))
+    cfg = parse_config(dict(pendulum.STUDY, modes={"count": max(MODE_COUNTS)},
+                            basis={"attachment": "none"}))
     chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, folder)
     paths = {}
     every = pipeline.basis_stage(chain.assembly.model, chain.modes, chain.body)

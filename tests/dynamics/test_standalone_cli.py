@@ -76,6 +76,7 @@ def test_standalone_integrator_runs_without_the_finite_element_stack(reduced, tm
                          cwd=REPO, capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stderr
     assert "LOADED=\n" in run.stderr
+    assert "note:" not in run.stderr        # the model is the study's (its input hash)
     traj = read_results(out / "results.h5")
     assert traj.complete and traj.message == ""
     assert traj.time[-1] == pytest.approx(0.01)
@@ -84,6 +85,19 @@ def test_standalone_integrator_runs_without_the_finite_element_stack(reduced, tm
     summary = json.loads((out / "summary.json").read_text())
     assert summary["complete"] and summary["steps"] == 10
     assert sorted(p.name for p in out.iterdir()) == ["results.h5", "summary.json"]
+
+
+def test_a_model_made_without_the_attachment_modes_the_study_asks_for_is_noted(reduced,
+                                                                             tmp_path):
+    """The committed beam holds no attachment modes; a study whose [basis] attachment is the
+    default "auto" (with the clamp's scene) asks for them: the run goes on with the model as
+    it is and says so in one note naming the key and its value."""
+    config = study(tmp_path, SCENE.replace('attachment = "none"', 'attachment = "auto"'))
+    run = standalone(str(reduced), str(config), "--out", str(tmp_path / "out"))
+    assert run.returncode == 0, run.stderr
+    [note] = [line for line in run.stderr.splitlines() if "note:" in line]
+    assert "was made from other" in note and "holds no attachment modes" in note
+    assert "[basis] attachment = 'auto'" in note and "simulated as it is" in note
 
 
 # -- 7. bad input --------------------------------------------------------------------------
