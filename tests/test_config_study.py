@@ -82,11 +82,14 @@ def test_attachment_auto_follows_the_scene():
     assert default.basis.attachment == "auto"
     scene = parse_config(dict(raw, basis={"attachment": "scene"}))
     assert default.modes.attachment == scene.modes.attachment
-    # the default scene: 3 forces at each bearing and crank pin, 2 moments at each bearing,
-    # the drive's moment, the spin's centrifugal load
+    # the default scene: 3 forces at each bearing, 2 at each crank pin (the gas force along z
+    # turns with the shaft in the y-z plane only), 2 moments at each bearing, the drive's
+    # moment, the spin's centrifugal load
     kinds = [load.kind for load in default.modes.attachment]
     assert (kinds.count("force"), kinds.count("moment"), kinds.count("centrifugal")) == (
-        3 * (2 + 4), 2 * 2 + 1, 1)
+        3 * 2 + 2 * 4, 2 * 2 + 1, 1)
+    pins = {load.direction for load in default.modes.attachment if load.group == "pin_0"}
+    assert pins == {(0.0, 0.0, 1.0), (0.0, -1.0, 0.0)}
     assert parse_config(dict(raw, basis={"attachment": "none"})).modes.attachment is None
     no_scene = {k: v for k, v in raw.items() if k != "scene"}
     assert parse_config(no_scene).modes.attachment is None
@@ -95,3 +98,33 @@ def test_attachment_auto_follows_the_scene():
         parse_config(dict(no_scene, basis={"attachment": "scene"}))
     with pytest.raises(ConfigError, match="'auto', 'none', 'scene'"):
         parse_config(dict(raw, basis={"attachment": "scenes"}))
+
+
+def test_a_load_gets_the_directions_the_body_can_see_it_in():
+    """A world-fixed force seen from the body (Rᵀ f over the rotations the joints leave):
+    its own direction under a clamp (f and −f one load), the plane ⊥ the axis and the axis
+    under revolute joints on one axis, x, y and z on a free body or a spherical joint; a load
+    at a joint's group adds nothing to the joint's three forces."""
+    from gcms_fenicsx.config.basis import BasisConfig, attachment_loads
+    from gcms_fenicsx.dynamics.scene import parse_scene
+
+    def forces(joints, loads):
+        scene = parse_scene({"end_time": 0.01, "time_step": 1e-3, "joints": joints,
+                             "loads": loads})
+        return {(a.group, a.direction) for a in attachment_loads(BasisConfig("scene"), scene)
+                if a.kind == "force" and a.group != "end_x0"}
+
+    clamp = [{"type": "fixed", "group": "end_x0"}]
+    pin = [{"type": "revolute", "group": "end_x0", "axis": [0.0, 1.0, 0.0]}]
+    tip = [{"group": "end_xL", "force": [0.0, 0.0, -3.0]},
+           {"group": "end_xL", "force": [0.0, 0.0, 5.0]}]
+    assert forces(clamp, tip) == {("end_xL", (0.0, 0.0, 1.0))}
+    slanted = [{"group": "end_xL", "force": [1.0, 1.0, 0.0]}]
+    plane = {d for _, d in forces(pin, slanted)}
+    assert len(plane) == 3 and (0.0, 1.0, 0.0) in plane
+    assert all(abs(d[1]) in (0.0, 1.0) for d in plane)          # the axis and ⊥ it
+    assert len(forces(pin, tip)) == 2                           # z ⊥ the pin's y: the x-z plane
+    assert len(forces([], tip)) == 3
+    assert len(forces([{"type": "spherical", "group": "end_x0"}], tip)) == 3
+    at_joint = [{"group": "end_x0", "force": [0.0, 0.0, 1.0]}]
+    assert forces(clamp, at_joint) == set()

@@ -1,7 +1,10 @@
 """The ``[basis]`` table: what a body's basis holds besides its free-free eigenmodes.
 
 ``attachment = "scene"`` adds attachment modes for the node groups the scene's joints and
-loads use (docs/design.md §3.7): a unit force along x, y and z at every such group, and a
+loads use (docs/design.md §3.7): a unit force along x, y and z at every joint's group and
+along every direction a load can take in the body's frame at a load's group (its own
+direction when a fixed joint holds every rotation; its components in the plane ⊥ a and
+along a when the joints let the body turn about a only; x, y and z otherwise), and a
 unit moment about every axis a joint holds the group's rotation about (two for a revolute
 joint, three for a fixed one, one more for a drive), distributed over the group as that
 joint's moment row distributes its reaction (the lever the row takes, ``joints.lever``, which
@@ -32,6 +35,7 @@ from dataclasses import dataclass
 from typing import Any, Mapping
 
 from gcms_fenicsx.config.table import ConfigError, Table
+from gcms_fenicsx.dynamics.basis_choice import PARALLEL
 from gcms_fenicsx.dynamics.scene import Scene
 
 ATTACHMENT = ("auto", "none", "scene")
@@ -84,10 +88,10 @@ def attachment_loads(cfg: BasisConfig, scene: Scene | None) -> tuple[AttachmentL
     if scene is None:
         raise ConfigError("[basis] attachment", cfg.attachment, "needs a [scene]: the "
                           "attachment modes are at the groups of its joints and loads")
-    loads: list[AttachmentLoad] = []
-    groups = [j.group for j in scene.joints] + [ld.group for ld in scene.loads]
-    for group in dict.fromkeys(groups):
-        loads += [AttachmentLoad(group, "force", axis) for axis in AXES]
+    loads = [AttachmentLoad(j.group, "force", axis) for j in scene.joints for axis in AXES]
+    held, turning = {j.group for j in scene.joints}, _turning(scene)
+    loads += [AttachmentLoad(ld.group, "force", direction) for ld in scene.loads
+              if ld.group not in held for direction in _load_directions(ld.force_n, turning)]
     for joint in scene.joints:
         loads += _moments(joint)
     spin = scene.initial.angular_velocity
@@ -96,6 +100,43 @@ def attachment_loads(cfg: BasisConfig, scene: Scene | None) -> tuple[AttachmentL
                  j.type == "revolute" and sum(a * w for a, w in zip(j.axis, spin)) != 0.0))}
     loads += [AttachmentLoad(group, "centrifugal", axis) for axis, group in spins.items()]
     return tuple(dict.fromkeys(loads))
+
+
+#: What the joints leave of the body's rotation: ``HELD`` (a fixed joint without a drive),
+#: ``FREE`` (any rotation, as far as this reading goes), or the one axis it may turn about.
+HELD, FREE = "held", "free"
+
+
+def _turning(scene: Scene) -> str | tuple[float, float, float]:
+    """The rotation the joints leave the body: HELD, one axis (every joint revolute or driven,
+    on parallel axes), or FREE (no joints, a spherical one, axes that are not parallel)."""
+    joints = scene.joints
+    if any(j.type == "fixed" and j.drive is None for j in joints):
+        return HELD
+    if not joints or any(j.axis is None for j in joints):
+        return FREE
+    a = joints[0].axis
+    parallel = all(_norm(_cross(a, j.axis)) <= PARALLEL for j in joints[1:])
+    return a if parallel else FREE
+
+
+def _load_directions(force: tuple[float, float, float], turning: str | tuple
+                     ) -> tuple[tuple[float, float, float], ...]:
+    """The unit directions whose span holds a world-fixed force as the body sees it in its
+    own frame (Rᵀ f for every rotation R the joints leave)."""
+    if turning == FREE:
+        return AXES
+    size = _norm(force)
+    if size == 0.0:
+        return ()
+    if turning == HELD:
+        unit = _unit(force)
+        sign = 1.0 if next(x for x in unit if x != 0.0) > 0.0 else -1.0   # f and −f: one load
+        return (tuple(sign * x for x in unit),)
+    along = sum(a * f for a, f in zip(turning, force))
+    across = _norm(tuple(f - along * a for a, f in zip(turning, force)))
+    return ((_perpendicular(turning) if across > PARALLEL * size else ())
+            + ((turning,) if abs(along) > PARALLEL * size else ()))
 
 
 def _moments(joint: Any) -> list[AttachmentLoad]:
@@ -118,6 +159,10 @@ def _cross(a, b) -> tuple[float, float, float]:
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
+def _norm(a) -> float:
+    return math.sqrt(sum(x * x for x in a))
+
+
 def _unit(a) -> tuple[float, float, float]:
-    n = math.sqrt(sum(x * x for x in a))
+    n = _norm(a)
     return tuple(x / n for x in a)
