@@ -16,7 +16,7 @@ beside its bending, gets none: on the flexible pendulum it changed the error fro
 in a study with a scene and ``"none"`` in one without (chosen from the run-time-against-error
 study, README: the damped crankshaft's best run is 100 % off its reference without them and
 1.5 % with them, the pendulum's 0.66 % and 0.0067 %; at Nm = 10 the crankshaft's nose whirl is
-121 % off its full model without them, 0.5 % with them from 1 ms on). Then the loads of the
+121 % off its full model without them, 0.56 % with them from 1 ms on). Then the loads of the
 joints' rows are exactly attachment loads, and the static response of the held body to its
 loads, gravity and spin lies in the basis (design §3.7). :func:`attachment_loads` lists them
 for a scene.
