@@ -5,7 +5,8 @@ and a content checksum:
 
 - the mesh, ``mesh.msh``: key ``input_digest`` = [geometry] + [mesh] in ``mesh.json``;
 - the free-free modes with the modal basis, ``modes.h5`` (``files.modes_file``): key
-  [geometry] + [mesh] + [material] + the solve's accuracy (``StudyConfig.modes_key``), not
+  [geometry] + [mesh] + [material] + the solve's accuracy + the attachment loads
+  (``StudyConfig.modes_key``), not
   the mode count: a file with more modes than asked serves, restricted to the lowest ones
   (a leading block), and one whose verified Sylvester count reaches past
   ``max_frequency_hz`` serves that band;
@@ -185,7 +186,8 @@ def cached_modes(cfg: StudyConfig, out: Path, progress: Progress) -> StoredModes
         return None
     if stored.key != cfg.modes_key():
         progress(f"modes: {path} was solved from other [geometry], [mesh], [material] or "
-                 "[modes] accuracy values; solving again")
+                 "[modes] accuracy values, or other attachment loads ([basis] attachment "
+                 "and the [scene]'s joints and loads); solving again")
         return None
     held = stored.basis.mode_count
     if cfg.modes.count is not None:

@@ -105,6 +105,8 @@ def test_a_load_gets_the_directions_the_body_can_see_it_in():
     its own direction under a clamp (f and −f one load), the plane ⊥ the axis and the axis
     under revolute joints on one axis, x, y and z on a free body or a spherical joint; a load
     at a joint's group adds nothing to the joint's three forces."""
+    import math
+
     from gcms_fenicsx.config.basis import BasisConfig, attachment_loads
     from gcms_fenicsx.dynamics.scene import parse_scene
 
@@ -126,5 +128,14 @@ def test_a_load_gets_the_directions_the_body_can_see_it_in():
     assert len(forces(pin, tip)) == 2                           # z ⊥ the pin's y: the x-z plane
     assert len(forces([], tip)) == 3
     assert len(forces([{"type": "spherical", "group": "end_x0"}], tip)) == 3
+    # a spherical joint ignores an axis given to it: the body still turns every way
+    assert len(forces([{"type": "spherical", "group": "end_x0", "axis": [0.0, 0.0, 1.0]}],
+                      tip)) == 3
+    # loads at one group along parallel directions are one load; no −0.0 in its key
+    parallel = [{"group": "end_xL", "force": [1.0, 1.0, 0.0]},
+                {"group": "end_xL", "force": [3.0, 3.0, 0.0]}]
+    assert len(forces(clamp, parallel)) == 1
+    [(_, d)] = forces(clamp, [{"group": "end_xL", "force": [0.0, 0.0, -5.0]}])
+    assert [math.copysign(1.0, x) for x in d] == [1.0, 1.0, 1.0]
     at_joint = [{"group": "end_x0", "force": [0.0, 0.0, 1.0]}]
     assert forces(clamp, at_joint) == set()

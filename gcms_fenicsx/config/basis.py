@@ -3,7 +3,7 @@
 ``attachment = "scene"`` adds attachment modes for the node groups the scene's joints and
 loads use (docs/design.md §3.7): a unit force along x, y and z at every joint's group and
 along every direction a load can take in the body's frame at a load's group (its own
-direction when a fixed joint holds every rotation; its components in the plane ⊥ a and
+direction when a fixed joint without a drive holds every rotation; its components in the plane ⊥ a and
 along a when the joints let the body turn about a only; x, y and z otherwise), and a
 unit moment about every axis a joint holds the group's rotation about (two for a revolute
 joint, three for a fixed one, one more for a drive), distributed over the group as that
@@ -18,7 +18,9 @@ study, README: the damped crankshaft's best run is 100 % off its reference witho
 1.5 % with them, the pendulum's 0.66 % and 0.0067 %; at Nm = 10 the crankshaft's nose whirl is
 121 % off its full model without them, 0.56 % with them from 1 ms on). Then the loads of the
 joints' rows are exactly attachment loads, and the static response of the held body to its
-loads, gravity and spin lies in the basis (design §3.7). :func:`attachment_loads` lists them
+loads, gravity and spin lies in the basis (design §3.7; with a load's directions pruned as
+above, exactly in the undeformed frame, and to first order as the body's frame turns with
+its deformation). :func:`attachment_loads` lists them
 for a scene.
 
 ``kind`` is the basis the scene runs in (docs/design.md §7.1): ``"full"`` (default: nine
@@ -90,8 +92,15 @@ def attachment_loads(cfg: BasisConfig, scene: Scene | None) -> tuple[AttachmentL
                           "attachment modes are at the groups of its joints and loads")
     loads = [AttachmentLoad(j.group, "force", axis) for j in scene.joints for axis in AXES]
     held, turning = {j.group for j in scene.joints}, _turning(scene)
-    loads += [AttachmentLoad(ld.group, "force", direction) for ld in scene.loads
-              if ld.group not in held for direction in _load_directions(ld.force_n, turning)]
+    seen: dict[str, list[tuple[float, float, float]]] = {}
+    for ld in scene.loads:
+        if ld.group in held:
+            continue
+        for d in _load_directions(ld.force_n, turning):
+            kept = seen.setdefault(ld.group, [])
+            if all(_norm(_cross(d, e)) > PARALLEL for e in kept):   # f ∥ f': one load
+                kept.append(d)
+                loads.append(AttachmentLoad(ld.group, "force", d))
     for joint in scene.joints:
         loads += _moments(joint)
     spin = scene.initial.angular_velocity
@@ -113,8 +122,8 @@ def _turning(scene: Scene) -> str | tuple[float, float, float]:
     joints = scene.joints
     if any(j.type == "fixed" and j.drive is None for j in joints):
         return HELD
-    if not joints or any(j.axis is None for j in joints):
-        return FREE
+    if not joints or any(j.type == "spherical" or j.axis is None for j in joints):
+        return FREE                            # (a spherical joint may carry an axis it ignores)
     a = joints[0].axis
     parallel = all(_norm(_cross(a, j.axis)) <= PARALLEL for j in joints[1:])
     return a if parallel else FREE
@@ -132,7 +141,7 @@ def _load_directions(force: tuple[float, float, float], turning: str | tuple
     if turning == HELD:
         unit = _unit(force)
         sign = 1.0 if next(x for x in unit if x != 0.0) > 0.0 else -1.0   # f and −f: one load
-        return (tuple(sign * x for x in unit),)
+        return (tuple(sign * x + 0.0 for x in unit),)                     # (+ 0.0: no −0.0)
     along = sum(a * f for a, f in zip(turning, force))
     across = _norm(tuple(f - along * a for a, f in zip(turning, force)))
     return ((_perpendicular(turning) if across > PARALLEL * size else ())

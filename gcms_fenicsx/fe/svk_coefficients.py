@@ -156,7 +156,8 @@ def check_memory(field_count: int, available: float | None = None, comm: Any = N
                           f"its coefficients for {field_count} fields need "
                           f"{need / 2 ** 30:.3g} GiB (s² doubles, s = nf (nf + 1) / 2 = "
                           f"{packed_size(field_count)}), more than the {limit / 2 ** 30:.3g} "
-                          "GiB this machine has available; ask fewer [modes] count or "
+                          "GiB this machine has available; ask fewer [modes] count, "
+                          '[basis] attachment = "none" (attachment modes add fields) or '
                           'elasticity = "corotated"')
 
 

@@ -13,7 +13,7 @@ from stress.readers import (balance_history, both, read_modes, read_selection, r
                             read_trajectory, reduced_difference)
 from stress.runner import Run, gcms
 from stress.studies import (DRIVE_FACTORS, LONG_STEPS, STEEL, default_study, driven_crankshaft,
-                            flexible_pendulum, material_beam, rotation_per_step, without_scene)
+                            flexible_pendulum, material_beam, rotation_per_step)
 from stress.suite import Suite
 
 
@@ -55,7 +55,8 @@ def long_runs(suite: Suite) -> None:
     run = gcms("run", rotor, suite.path("long_pendulum_rotor"))
     suite.probe("long", f"flexible pendulum, rotor basis, {LONG_STEPS} steps", run, read_long,
                 body="pendulum", drive_factor=None)
-    reduced = gcms("reduce", without_scene(default_study()), suite.path("long_crank_reduced"))
+    # with its scene: the attachment modes the runs' studies ask for, so that they reuse it
+    reduced = gcms("reduce", default_study(), suite.path("long_crank_reduced"))
     suite.probe("long", "crankshaft, reduce", reduced, read_selection, body="crankshaft",
                 drive_factor=None)
     if not reduced.ok:

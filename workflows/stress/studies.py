@@ -92,11 +92,6 @@ def default_study() -> dict:
     return tomllib.loads((REPO / "gcms_fenicsx" / "data" / "default.toml").read_text())
 
 
-def without_scene(study: dict) -> dict:
-    """``study`` without its ``[scene]`` table."""
-    return {k: v for k, v in study.items() if k != "scene"}
-
-
 def mm_t_s(study: dict) -> dict:
     """The study in mm, t, s: lengths ×1e3, E in MPa, ρ in t/mm³, gravity in mm/s²."""
     s = json.loads(json.dumps(study))
