@@ -166,8 +166,7 @@ def other_study_note(cfg: StudyConfig, model: ReducedModel) -> str | None:
     hash is another's; the standalone integrator runs it all the same), or None: in
     particular when the study asks for attachment modes (``[basis] attachment``, "auto" with
     a scene) that the model does not hold."""
-    if not model.input_hash or model.input_hash in (cfg.reduced_key(),
-                                                    cfg.reduced_key(svk=True)):
+    if not model.input_hash or cfg.served_by(model.input_hash):
         return None
     text = ("was made from other inputs than this study's (its input hash differs: "
             "[geometry], [mesh], [material], [modes], [selection] or [basis] attachment)")

@@ -257,8 +257,7 @@ def cached_reduced(cfg: StudyConfig, out: Path, progress: Progress) -> ReducedMo
         progress(f"reduced model: {path} has no content checksums (schema "
                  f"{model.schema_version}, an older gcms-fenicsx); rebuilding it")
         return None
-    superset = not cfg.needs_svk and model.input_hash == cfg.reduced_key(svk=True)
-    if model.input_hash != cfg.reduced_key() and not superset:
+    if not cfg.served_by(model.input_hash):
         other_law = cfg.needs_svk and model.input_hash == cfg.reduced_key(svk=False)
         why = ("was made without the SVK coefficients ([scene] elasticity changed)"
                if other_law else "was made from other inputs")

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 from typing import Any, Mapping
 
 from gcms_fenicsx.config.table import ConfigError, Table
-from gcms_fenicsx.dynamics.basis_choice import PARALLEL
+from gcms_fenicsx.dynamics.basis_choice import PARALLEL, off_axis
 from gcms_fenicsx.dynamics.scene import Scene
 
 ATTACHMENT = ("auto", "none", "scene")
@@ -124,9 +124,7 @@ def _turning(scene: Scene) -> str | tuple[float, float, float]:
         return HELD
     if not joints or any(j.type == "spherical" or j.axis is None for j in joints):
         return FREE                            # (a spherical joint may carry an axis it ignores)
-    a = joints[0].axis
-    parallel = all(_norm(_cross(a, j.axis)) <= PARALLEL for j in joints[1:])
-    return a if parallel else FREE
+    return joints[0].axis if off_axis(joints) is None else FREE
 
 
 def _load_directions(force: tuple[float, float, float], turning: str | tuple

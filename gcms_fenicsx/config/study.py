@@ -75,6 +75,13 @@ class StudyConfig:
             return digest
         return hashlib.sha256(json.dumps([digest, "svk"]).encode()).hexdigest()
 
+    def served_by(self, input_hash: str) -> bool:
+        """Whether a reduced model of key ``input_hash`` is this study's: made from its tables,
+        with the SVK coefficients if the scene needs them (one with them also serves a
+        co-rotated scene)."""
+        return input_hash == self.reduced_key() or (
+            not self.needs_svk and input_hash == self.reduced_key(svk=True))
+
     def modes_key(self) -> str:
         """The key of cached free-free modes: what the solve depends on apart from how many
         modes it returns (more modes than asked serve as well: fewer are a leading block)."""

@@ -7,8 +7,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Sequence
 
-from gcms_fenicsx.dynamics.scene import Scene, SceneError
+from gcms_fenicsx.dynamics.scene import Joint, Scene, SceneError
 
 #: Joint axes whose sines of the angle between them are below this are one axis.
 PARALLEL = 1e-9
@@ -53,13 +54,21 @@ def _rotor_problem(scene: Scene) -> str | None:
     for j in scene.joints:
         if j.type != "revolute":
             return f"joint {j.name!r} is {j.type}; {needs}"
-    first = scene.joints[0]
-    a = first.axis                        # the scene's axes are unit vectors (``scene``)
-    for j in scene.joints[1:]:
+    first, j = scene.joints[0], off_axis(scene.joints)
+    if j is not None:
+        return (f"joints {first.name!r} (axis {list(first.axis)}) and {j.name!r} (axis "
+                f"{list(j.axis)}) turn about different axes")
+    return None
+
+
+def off_axis(joints: Sequence[Joint]) -> Joint | None:
+    """The first of ``joints`` (each with a unit axis) whose axis is not parallel to the first
+    one's, or None (also used by ``config.basis`` for the rotation loads can take)."""
+    a = joints[0].axis
+    for j in joints[1:]:
         b = j.axis
         cross = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
         if math.sqrt(sum(x * x for x in cross)) > PARALLEL:
-            return (f"joints {first.name!r} (axis {list(first.axis)}) and {j.name!r} (axis "
-                    f"{list(j.axis)}) turn about different axes")
+            return j
     return None
 
