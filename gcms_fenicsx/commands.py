@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from gcms_fenicsx import pipeline, stage_cache, stage_files
+from gcms_fenicsx.config.basis import scene_patterns
 from gcms_fenicsx.config.study import StudyConfig, load_config
 from gcms_fenicsx.config.table import ConfigError
 from gcms_fenicsx.files.names import MESH_FILES, MODES_FILES, REDUCE_FILES, SIMULATION_FILES
@@ -99,7 +100,8 @@ def scene_files(cfg: StudyConfig, model: ReducedModel, folder: Path, progress: P
     results = folder / "results.h5"
     t0 = time.perf_counter()
     summary = pipeline.simulation_stage(model, cfg.scene, results, progress, cfg.basis.kind,
-                                        cfg.modes.attachment or ())
+                                        cfg.modes.attachment or (),
+                                        scene_patterns(cfg.basis, cfg.scene))
     if plots:
         summary["plots"] = plot_results(results, folder)
     if stages is not None:

@@ -23,7 +23,7 @@ from geometry.element_order import element_order_warning
 from geometry.estimate import estimate_mesh
 from geometry.params import Geometry, MeshParams
 
-from gcms_fenicsx.config.basis import AttachmentLoad
+from gcms_fenicsx.config.basis import AttachmentLoad, ScenePatterns
 from gcms_fenicsx.config.material import Material
 from gcms_fenicsx.config.modes import ModesConfig
 from gcms_fenicsx.config.selection import SelectionConfig
@@ -189,9 +189,11 @@ def svk_stage(mesh_file: Path, fields: np.ndarray | None, material: Material,
 
 def simulation_stage(model: ReducedModel, scene: Scene, results: Path,
                      progress: Progress = quiet, basis: str = "full",
-                     attachment: tuple[AttachmentLoad, ...] = ()) -> dict:
+                     attachment: tuple[AttachmentLoad, ...] = (),
+                     static: ScenePatterns | None = None) -> dict:
     """Run ``scene`` on ``model`` in the ``[basis] kind`` ``basis`` (the rotor basis with the
-    ``attachment`` loads' attachment modes, ``dynamics.run_basis.in_basis``), streaming its
-    results into ``results`` (results.h5); the summary (``summary.json``). Serial: the reduced
-    matrices live on one rank."""
-    return simulate_to_file(model, scene, results, progress, basis, attachment)
+    ``attachment`` loads' attachment modes; with the scene's ``static`` patterns, on the held
+    body's static shapes; ``dynamics.run_basis.in_basis``), streaming its results into ``results``
+    (results.h5); the summary (``summary.json``). Serial: the reduced matrices live on one
+    rank."""
+    return simulate_to_file(model, scene, results, progress, basis, attachment, static)

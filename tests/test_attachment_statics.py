@@ -16,13 +16,13 @@ import numpy as np
 import pytest
 
 from gcms_fenicsx import pipeline
-from gcms_fenicsx.config.basis import AttachmentLoad
 from gcms_fenicsx.config.study import default_config_text, parse_config
 from gcms_fenicsx.dynamics.body import body_from_reduced
 from gcms_fenicsx.fe.node_groups import group_weights
-from gcms_fenicsx.dynamics.rotor_basis import generalized_loads
 from gcms_fenicsx.dynamics.statics import held_static
 from gcms_fenicsx.references.full_order import full_held_static, full_order_body
+
+from spin import drive_spin
 
 logging.disable(logging.INFO)
 
@@ -46,11 +46,7 @@ def test_the_crankshaft_held_by_its_bearings_and_drive_is_the_full_models(tmp_pa
     reduced = body_from_reduced(pipeline.reduction_stage(
         pipeline.basis_stage(model, chain.modes, chain.body), cfg.selection))
     def spin(body):
-        if load == "scene":
-            return None
-        drive = cfg.scene.joints[0]
-        unit = AttachmentLoad(drive.group, "centrifugal", drive.axis)
-        return drive.drive.angular_velocity ** 2 * generalized_loads(body, [unit])[:, 0]
+        return None if load == "scene" else drive_spin(cfg, body)
 
     static = full_held_static(full, cfg.scene, spin(full))
     static_r = held_static(reduced, cfg.scene, spin(reduced))

@@ -139,3 +139,58 @@ def test_a_load_gets_the_directions_the_body_can_see_it_in():
     assert [math.copysign(1.0, x) for x in d] == [1.0, 1.0, 1.0]
     at_joint = [{"group": "end_x0", "force": [0.0, 0.0, 1.0]}]
     assert forces(clamp, at_joint) == set()
+
+
+def test_static_shapes_take_the_scenes_load_patterns():
+    """[basis] shapes = "static": on the default crankshaft, the four gas forces in the plane
+    ⊥ the shaft (two directions each), gravity likewise, the drive's angular acceleration and
+    its spin — 12 patterns — and the scene's band for the held modes; under a clamp, a load's
+    own direction and gravity's, nothing turning. Refused naming the key without a scene, for
+    joints that leave the body free to turn, with an initial mode and with another elastic
+    law; the reduced model (its input hash) does not depend on it."""
+    import math
+
+    import pytest
+
+    from gcms_fenicsx.config.basis import BasisConfig, scene_patterns, static_loads
+    from gcms_fenicsx.config.table import ConfigError
+    from gcms_fenicsx.dynamics.scene import parse_scene
+
+    raw = tomllib.loads(default_config_text())
+    cfg = parse_config(dict(raw, basis={"shapes": "static"}))
+    loads = static_loads(cfg.basis, cfg.scene)
+    kinds = [load.kind for load in loads]
+    assert (kinds.count("force"), kinds.count("gravity"), kinds.count("tangential"),
+            kinds.count("centrifugal")) == (2 * 4, 2, 1, 1)
+    assert {ld.direction for ld in loads if ld.kind == "gravity"} == {(0.0, 0.0, 1.0),
+                                                                       (0.0, -1.0, 0.0)}
+    assert (cfg.digest(*REDUCED_MODEL_TABLES)
+            == load_config(None).digest(*REDUCED_MODEL_TABLES))
+    assert static_loads(load_config(None).basis, cfg.scene) == ()
+    # the held modes kept besides: below the scene's band, twice (25 Hz + 50 Hz)
+    patterns = scene_patterns(cfg.basis, cfg.scene)
+    assert patterns.loads == loads and patterns.band_hz == 2 * (25.0 + 314.159 / (2 * math.pi))
+    assert scene_patterns(load_config(None).basis, cfg.scene) is None
+
+    def scene(joints, **more):
+        return parse_scene({"end_time": 0.01, "time_step": 1e-3, "joints": joints,
+                            "gravity": [0.0, 0.0, -9.81],
+                            "loads": [{"group": "end_xL", "force": [0.0, 0.0, -3.0]}], **more})
+
+    clamp = [{"type": "fixed", "group": "end_x0"}]
+    held = static_loads(BasisConfig(shapes="static"), scene(clamp))
+    assert [(ld.kind, ld.direction) for ld in held] == [("force", (0.0, 0.0, 1.0)),
+                                                        ("gravity", (0.0, 0.0, 1.0))]
+    static = BasisConfig(shapes="static")
+    with pytest.raises(ConfigError, match=r"\[basis\] shapes.*needs a \[scene\]"):
+        static_loads(static, None)
+    with pytest.raises(ConfigError, match=r"\[basis\] shapes.*free to turn"):
+        static_loads(static, scene([{"type": "spherical", "group": "end_x0"}]))
+    with pytest.raises(ConfigError, match=r"\[basis\] shapes.*the scene has no joints"):
+        static_loads(static, scene([]))
+    with pytest.raises(ConfigError, match=r"\[basis\] shapes.*initial\] mode = 1"):
+        static_loads(static, scene(clamp, initial={"mode": 1, "amplitude": 1e-4}))
+    with pytest.raises(ConfigError, match=r"\[basis\] shapes.*svk"):
+        static_loads(static, scene(clamp, elasticity="svk"))
+    with pytest.raises(ConfigError, match="'modes', 'static'"):
+        parse_config(dict(raw, basis={"shapes": "ritz"}))

@@ -15,8 +15,11 @@ setting resolves. Two comparisons:
 - dynamics: the nose's whirl, the bearing forces and the drive torque over the run
   (``auto_modes.outputs``), max_t |y − y_ref| / max_t |y_ref|, over the whole run and from
   1 ms on (``START_S``), for Nm = 5, 10, 20 with and
-  without attachment modes, in the full and the rotor basis, and the run ``pareto`` takes
-  as its crankshaft reference (Nm = 20, attachment modes, full basis, half the step).
+  without attachment modes, in the full and the rotor basis, the static shapes of Nm = 10
+  with attachment modes in both (``[basis] shapes = "static"``: the held body's static
+  responses to the scene's load patterns, the same for every Nm with attachment modes, whose
+  span holds them), and the run ``pareto`` takes as its crankshaft reference (Nm = 20,
+  attachment modes, full basis, half the step).
 
     python workflows/crankshaft_reference.py [--out docs/crankshaft_reference] [--half-step]
 
@@ -44,10 +47,13 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 from auto_modes import OUTPUTS, START_S, after_start, errors, outputs  # noqa: E402
-from pareto import crankshaft_outputs, on_times, run_chain, study  # noqa: E402
+from pareto import crankshaft_outputs, on_times, run_chain, shapes_of, study  # noqa: E402
 
 DAMPING_BETA_S = 1e-4
 MODE_COUNTS = (5, 10, 20)
+#: the Nm whose model also runs on its static shapes (with attachment modes they are the same
+#: shapes for every Nm)
+STATIC_MODES = 10
 NOSE = "end_x0"
 #: pareto's crankshaft reference: the finest and richest run of its sweep
 PARETO_REFERENCE = {"mesh_size": None, "modes": 20, "attachment": "scene", "tolerance": 1e-6,
@@ -159,19 +165,23 @@ def main() -> None:
         for s in settings:
             cfg, reduced, offline = run_chain(damped(s), tmp)
             static = statics(full, exact, body_from_reduced(reduced), cfg)
-            for basis in ("full", "rotor"):
-                if s is PARETO_REFERENCE and basis == "rotor":
-                    continue
-                tag = f"{s['modes']}{s['attachment']}{s['time_step']}{basis}"
-                out, online, t, dofs = crankshaft_outputs(reduced, cfg, tmp, tag, basis)
+            kinds = [(shapes, patterns, basis) for shapes, patterns in shapes_of(cfg).items()
+                     for basis in ("full", "rotor")
+                     if (s is not PARETO_REFERENCE or (basis, shapes) == ("full", "modes"))
+                     and (shapes == "modes" or s["modes"] == STATIC_MODES)]
+            for shapes, patterns, basis in kinds:
+                tag = f"{s['modes']}{s['attachment']}{s['time_step']}{basis}{shapes}"
+                out, online, t, dofs = crankshaft_outputs(reduced, cfg, tmp, tag, basis,
+                                                          patterns)
                 out = on_times(out, t, ref["time"])
-                row = dict(s, basis=basis, coordinates=dofs, offline_s=offline,
+                row = dict(s, shapes=shapes, basis=basis, coordinates=dofs, offline_s=offline,
                            online_s=online, error=errors(out, ref),
                            error_after_start=errors(*(after_start(o, ref["time"])
                                                       for o in (out, ref))),
                            static=static)
                 rows.append(row)
-                curves[f"{s['modes']} {s['attachment']} {basis} {s['time_step']:g}"] = out
+                curves[f"{s['modes']} {s['attachment']} {shapes} {basis} "
+                       f"{s['time_step']:g}"] = out
                 log(json.dumps({k: v for k, v in row.items() if k != "static"}))
     result["rows"] = rows
     args.out.parent.mkdir(parents=True, exist_ok=True)
@@ -183,12 +193,12 @@ def main() -> None:
 def tables(result: dict) -> str:
     """The dynamics table (per row: coordinates, the three outputs' errors, online seconds)
     and the statics table (per reduced model)."""
-    lines = ["| Nm | attachment | basis | h µs | coordinates | nose whirl | bearing forces | "
-             f"drive torque | the three from {START_S * 1e3:g} ms on | simulation s |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| Nm | attachment | shapes | basis | h µs | coordinates | nose whirl | "
+             f"bearing forces | drive torque | the three from {START_S * 1e3:g} ms on | "
+             "simulation s |", "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in result["rows"]:
         e, late = r["error"], r["error_after_start"]
-        lines.append(f"| {r['modes']} | {r['attachment']} | {r['basis']} | "
+        lines.append(f"| {r['modes']} | {r['attachment']} | {r['shapes']} | {r['basis']} | "
                      f"{r['time_step'] * 1e6:g} | {r['coordinates']} | "
                      + " | ".join(f"{100 * e[k]:.2f} %" for k in OUTPUTS) + " | "
                      + ", ".join(f"{100 * late[k]:.2f}" for k in OUTPUTS) + " %"
@@ -196,7 +206,7 @@ def tables(result: dict) -> str:
     lines += ["", "| Nm | attachment | static nose (scene loads) | reactions | "
               "static nose (spin) | reactions |", "|---|---|---|---|---|---|"]
     for r in result["rows"]:
-        if r["basis"] != "full" or r["time_step"] != 5e-5:
+        if r["basis"] != "full" or r["time_step"] != 5e-5 or r["shapes"] != "modes":
             continue
         st = r["static"]
         lines.append(f"| {r['modes']} | {r['attachment']} | " + " | ".join(
@@ -205,8 +215,9 @@ def tables(result: dict) -> str:
 
 
 def plot(curves: dict, path: Path) -> None:
-    """The nose's whirl (z) and the front bearing's vertical force over time: (a) and the
-    full basis at Nm = 10 and 20 with attachment modes and at Nm = 10 without."""
+    """The nose's whirl (z) and the front bearing's vertical force over time: (a), the
+    full basis at Nm = 10 and 20 with attachment modes and at Nm = 10 without, and the rotor
+    basis on the static shapes."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -214,9 +225,10 @@ def plot(curves: dict, path: Path) -> None:
     t = curves["time"] * 1e3
     fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
     shown = [("a", "reference (a), full model", "k", 2.0),
-             ("10 none full 5e-05", "Nm = 10", "tab:red", 1.0),
-             ("10 scene full 5e-05", "Nm = 10 + attachment", "tab:blue", 1.0),
-             ("20 scene full 5e-05", "Nm = 20 + attachment", "tab:green", 1.0)]
+             ("10 none modes full 5e-05", "Nm = 10", "tab:red", 1.0),
+             ("10 scene modes full 5e-05", "Nm = 10 + attachment", "tab:blue", 1.0),
+             ("20 scene modes full 5e-05", "Nm = 20 + attachment", "tab:green", 1.0),
+             ("10 scene static rotor 5e-05", "static shapes, rotor basis", "tab:orange", 1.0)]
     for key, label, color, width in shown:
         axes[0].plot(t, curves[key]["nose whirl"][:, 1] * 1e9, color=color, lw=width,
                      label=label)

@@ -23,12 +23,15 @@ time divided by the reference's largest value.
   ringing, which no setting resolves; damped, the time step does.
 
 Every reduced model runs the scene in both bases, ``basis = "full"`` and ``"rotor"``
-(``[basis] kind``; the joints of both scenes allow the rotor basis): the offline time is
-shared, the coordinates and the online time are each basis's.
+(``[basis] kind``; the joints of both scenes allow the rotor basis), and one with attachment
+modes also on the held body's static shapes (``[basis] shapes = "static"``, row key
+``shapes``: "modes" or "static"; made from the reduced model when the scene runs, so their
+time is online): the offline time is shared, the coordinates and the online time are each
+run's.
 
     python workflows/pareto.py [--quick] [--out docs]
 
-writes OUT/pareto.json (``rows``: case, mesh_size, order, modes, attachment, basis,
+writes OUT/pareto.json (``rows``: case, mesh_size, order, modes, attachment, shapes, basis,
 tolerance, time_step, coordinates, error, offline_s, online_s, total_s, and per output for
 the crankshaft) and OUT/pareto.png (error against total and against online time), and
 prints the cheapest settings for 10 %, 1 % and 0.1 % error.
@@ -121,15 +124,16 @@ def pendulum_reference(folder: Path) -> dict:
         rigid, traj.time, traj.groups["end_xL"]["position"])}
 
 
-def pendulum_error(reduced, cfg, ref: dict, basis: str) -> tuple[float, float, int]:
+def pendulum_error(reduced, cfg, ref: dict, basis: str, static=None
+                   ) -> tuple[float, float, int]:
     """(error against (a), simulation seconds, coordinates) of one reduced pendulum in
-    ``basis``."""
+    ``basis`` (on the static shapes of the scene's ``static`` patterns, if given)."""
     from gcms_fenicsx.dynamics.simulate import simulate
     from gcms_fenicsx.references import pendulum
 
     t0 = time.perf_counter()
     traj, summary = simulate(reduced, cfg.scene, basis=basis,
-                             attachment=cfg.modes.attachment or ())
+                             attachment=cfg.modes.attachment or (), static=static)
     online = time.perf_counter() - t0
     if not summary["complete"]:
         return float("nan"), online, summary["reduced_dofs"]
@@ -141,16 +145,17 @@ def pendulum_error(reduced, cfg, ref: dict, basis: str) -> tuple[float, float, i
             summary["reduced_dofs"])
 
 
-def crankshaft_outputs(reduced, cfg, folder: Path, tag: str, basis: str = "full"
-                       ) -> tuple[dict, float, np.ndarray, int]:
-    """(outputs, simulation seconds, recorded times, coordinates) of one run in ``basis``."""
+def crankshaft_outputs(reduced, cfg, folder: Path, tag: str, basis: str = "full",
+                       static=None) -> tuple[dict, float, np.ndarray, int]:
+    """(outputs, simulation seconds, recorded times, coordinates) of one run in ``basis``
+    (on the static shapes of the scene's ``static`` patterns, if given)."""
     from gcms_fenicsx.dynamics.results import read_results
     from gcms_fenicsx.dynamics.simulate import simulate_to_file
 
     path = folder / f"{tag}.h5"
     t0 = time.perf_counter()
     summary = simulate_to_file(reduced, cfg.scene, path, basis=basis,
-                               attachment=cfg.modes.attachment or ())
+                               attachment=cfg.modes.attachment or (), static=static)
     online = time.perf_counter() - t0
     results = read_results(path)
     return outputs(results), online, results.time, summary["reduced_dofs"]
@@ -163,6 +168,19 @@ def on_times(out: dict, t: np.ndarray, t_ref: np.ndarray) -> dict:
 
 
 BASES = ("full", "rotor")
+
+
+def shapes_of(cfg) -> dict[str, Any]:
+    """The shapes a reduced model runs on: its modes (None), and with attachment modes (which
+    make the static shapes exact) the held body's static shapes, by the scene's patterns."""
+    from dataclasses import replace
+
+    from gcms_fenicsx.config.basis import scene_patterns
+
+    if not cfg.modes.attachment:
+        return {"modes": None}
+    return {"modes": None,
+            "static": scene_patterns(replace(cfg.basis, shapes="static"), cfg.scene)}
 #: The crankshaft scenes: the default one, and the same with stiffness-proportional damping
 #: β = 1e-4 s (s), whose outputs the time step resolves (module docstring).
 CRANKSHAFT_DAMPING = {"crankshaft": None, "crankshaft_damped": 1e-4}
@@ -181,9 +199,10 @@ def main() -> None:
         ref = pendulum_reference(tmp)
         for s in sweep("pendulum", args.quick):
             cfg, reduced, offline = run_chain(study("pendulum", s), tmp)
-            for basis in BASES:
-                error, online, dofs = pendulum_error(reduced, cfg, ref, basis)
-                rows.append(_row("pendulum", cfg, s, basis, dofs, error, offline, online))
+            for (shapes, static), basis in itertools.product(shapes_of(cfg).items(), BASES):
+                error, online, dofs = pendulum_error(reduced, cfg, ref, basis, static)
+                rows.append(_row("pendulum", cfg, dict(s, shapes=shapes), basis, dofs, error,
+                                 offline, online))
                 print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
         for case, damping in CRANKSHAFT_DAMPING.items():
             rows += crankshaft_rows(case, damping, args.quick, tmp, convergence)
@@ -217,11 +236,12 @@ def crankshaft_rows(case: str, damping: float | None, quick: bool, tmp: Path,
     rows = []
     for k, s in enumerate(sweep("crankshaft", quick)):
         cfg, reduced, offline = run_chain(scened(s), tmp)
-        for basis in BASES:
-            out, online, t, dofs = crankshaft_outputs(reduced, cfg, tmp, f"c{k}", basis)
+        for (shapes, static), basis in itertools.product(shapes_of(cfg).items(), BASES):
+            out, online, t, dofs = crankshaft_outputs(reduced, cfg, tmp, f"c{k}", basis,
+                                                      static)
             e = errors(out, on_times(reference, t_ref, t))
-            rows.append(dict(_row(case, cfg, s, basis, dofs, e["maximum"], offline, online),
-                             **{name: e[name] for name in OUTPUTS}))
+            rows.append(dict(_row(case, cfg, dict(s, shapes=shapes), basis, dofs, e["maximum"],
+                                  offline, online), **{name: e[name] for name in OUTPUTS}))
             print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
     return rows
 
@@ -229,7 +249,8 @@ def crankshaft_rows(case: str, damping: float | None, quick: bool, tmp: Path,
 def _row(case: str, cfg, s: dict, basis: str, coordinates: int, error: float, offline: float,
          online: float) -> dict:
     return {"case": case, "mesh_size": cfg.mesh.size, "order": cfg.mesh.order,
-            "modes": s["modes"], "attachment": s["attachment"], "basis": basis,
+            "modes": s["modes"], "attachment": s["attachment"],
+            "shapes": s.get("shapes", "modes"), "basis": basis,
             "tolerance": s["tolerance"], "time_step": s["time_step"],
             "coordinates": coordinates, "error": error, "offline_s": offline,
             "online_s": online, "total_s": offline + online}
@@ -237,7 +258,8 @@ def _row(case: str, cfg, s: dict, basis: str, coordinates: int, error: float, of
 
 def cheapest_table(rows: list[dict]) -> str:
     """Per case and target error, the run of least total time that meets it."""
-    lines = ["| case | error ≤ | settings (mesh size, Nm, attachment, basis, tolerance, h) | "
+    lines = ["| case | error ≤ | settings (mesh size, Nm, attachment, shapes, basis, "
+             "tolerance, h) | "
              "coordinates | error | total s |", "|---|---|---|---|---|---|"]
     for case in dict.fromkeys(r["case"] for r in rows):
         for target in TARGETS:
@@ -247,7 +269,8 @@ def cheapest_table(rows: list[dict]) -> str:
                 continue
             r = min(meeting, key=lambda r: r["total_s"])
             lines.append(f"| {case} | {target:g} | {r['mesh_size']:g} m, {r['modes']}, "
-                         f"{r['attachment']}, {r['basis']}, {r['tolerance']:g}, "
+                         f"{r['attachment']}, {r['shapes']}, {r['basis']}, "
+                         f"{r['tolerance']:g}, "
                          f"{r['time_step']:g} s | {r['coordinates']} | {r['error']:.2e} | "
                          f"{r['total_s']:.1f} |")
     return "\n".join(lines)
@@ -259,7 +282,7 @@ def basis_table(rows: list[dict]) -> str:
     lines = ["| case | runs | coordinates full → rotor | error rotor / full (median, range) | "
              "online full / rotor (median, range) |", "|---|---|---|---|---|"]
     for case in dict.fromkeys(r["case"] for r in rows):
-        key = ("mesh_size", "modes", "attachment", "tolerance", "time_step")
+        key = ("mesh_size", "modes", "attachment", "shapes", "tolerance", "time_step")
         full = {tuple(r[k] for k in key): r for r in rows
                 if r["case"] == case and r["basis"] == "full"}
         pairs = [(full[tuple(r[k] for k in key)], r) for r in rows
@@ -283,12 +306,15 @@ def plot(rows: list[dict], path: Path) -> None:
     for i, case in enumerate(cases):
         for j, key in enumerate(("total_s", "online_s")):
             ax = axes[i, j]
-            for (att, basis), marker in zip(itertools.product(("none", "scene"), BASES),
-                                            ("o", "^", "s", "D")):
+            kinds = [("none", "modes"), ("scene", "modes"), ("scene", "static")]
+            for ((att, shapes), basis), marker in zip(itertools.product(kinds, BASES),
+                                                      ("o", "^", "s", "D", "v", "P")):
                 pts = [(r[key], r["error"]) for r in rows if r["case"] == case
-                       and r["attachment"] == att and r["basis"] == basis]
-                ax.loglog(*zip(*pts), marker, ls="", alpha=0.7,
-                          label=f"attachment {att}, {basis} basis")
+                       and r["attachment"] == att and r.get("shapes", "modes") == shapes
+                       and r["basis"] == basis]
+                if pts:
+                    ax.loglog(*zip(*pts), marker, ls="", alpha=0.7,
+                              label=f"attachment {att}, {shapes}, {basis} basis")
             front = _front([(r[key], r["error"]) for r in rows if r["case"] == case])
             ax.loglog(*zip(*front), "k-", lw=1, label="Pareto front")
             ax.set_xlabel(key.replace("_s", " time [s]"))

@@ -3,8 +3,9 @@
 ``attachment = "scene"`` adds attachment modes for the node groups the scene's joints and
 loads use (docs/design.md §3.7): a unit force along x, y and z at every joint's group and
 along every direction a load can take in the body's frame at a load's group (its own
-direction when a fixed joint without a drive holds every rotation; its components in the plane ⊥ a and
-along a when the joints let the body turn about a only; x, y and z otherwise), and a
+direction when a fixed joint without a drive holds every rotation; its components in the
+plane ⊥ a and along a when the joints let the body turn about a only; x, y and z otherwise),
+and a
 unit moment about every axis a joint holds the group's rotation about (two for a revolute
 joint, three for a fixed one, one more for a drive), distributed over the group as that
 joint's moment row distributes its reaction (the lever the row takes, ``joints.lever``, which
@@ -28,7 +29,15 @@ columns per mode), ``"rotor"`` (three per mode, for joints that leave only rotat
 axis; refused naming the joints otherwise, when the study is read) or ``"auto"`` (the rotor
 basis when the joints allow it, else the full one; ``dynamics.basis_choice``). It does not
 change the reduced model: the rotor basis is made from it when the scene runs
-(``dynamics.run_basis``). No NumPy.
+(``dynamics.run_basis``).
+
+``shapes`` is what the basis deforms along: ``"modes"`` (default: the model's elastic and
+attachment modes) or ``"static"``: the modes of the body held by its joints below the band of
+frequencies the scene excites and its static responses to the scene's load patterns
+(:func:`scene_patterns`, ``dynamics.static_shapes``), made from the reduced model when the
+scene runs (it does not change either). The default crankshaft: no held mode below its
+150 Hz band, 12 responses, 46 coordinates in the rotor basis, 120 in the full one (282 on the
+modes). No NumPy.
 """
 from __future__ import annotations
 
@@ -36,12 +45,14 @@ import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
+from gcms_fenicsx.config.scene_band import scene_band
 from gcms_fenicsx.config.table import ConfigError, Table
 from gcms_fenicsx.dynamics.basis_choice import PARALLEL, off_axis
 from gcms_fenicsx.dynamics.scene import Scene
 
 ATTACHMENT = ("auto", "none", "scene")
 KINDS = ("auto", "full", "rotor")
+SHAPES = ("modes", "static")
 
 AXES = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 
@@ -52,13 +63,16 @@ class BasisConfig:
 
     attachment: str = "auto"
     kind: str = "full"
+    shapes: str = "modes"
 
 
 @dataclass(frozen=True)
 class AttachmentLoad:
     """A unit force along, or a unit moment about, ``direction`` at node group ``group``; or
     ("centrifugal") the body's centrifugal load spinning at 1 rad/s about ``direction``
-    (the joint at ``group`` turns about it)."""
+    (the joint at ``group`` turns about it); or, for the static shapes only, the inertia
+    load of an angular acceleration of 1 rad/s² about it ("tangential") or of an acceleration
+    of 1 m/s² along it ("gravity")."""
 
     group: str
     kind: str                                  # "force", "moment" or "centrifugal"
@@ -69,15 +83,18 @@ class AttachmentLoad:
     @property
     def label(self) -> str:
         axis = ",".join(f"{c:.3g}" for c in self.direction)
-        if self.kind == "centrifugal":
-            return f"centrifugal about [{axis}]"
+        if self.kind in ("centrifugal", "tangential"):
+            return f"{self.kind} about [{axis}]"
+        if self.kind == "gravity":
+            return f"gravity along [{axis}]"
         return f"{self.kind} [{axis}] at {self.group}"
 
 
 def parse_basis(raw: Mapping[str, Any] | None) -> BasisConfig:
     t = Table("basis", raw)
     cfg = BasisConfig(attachment=t.choice("attachment", ATTACHMENT, BasisConfig.attachment),
-                      kind=t.choice("kind", KINDS, BasisConfig.kind))
+                      kind=t.choice("kind", KINDS, BasisConfig.kind),
+                      shapes=t.choice("shapes", SHAPES, BasisConfig.shapes))
     t.finish()
     return cfg
 
@@ -91,7 +108,72 @@ def attachment_loads(cfg: BasisConfig, scene: Scene | None) -> tuple[AttachmentL
         raise ConfigError("[basis] attachment", cfg.attachment, "needs a [scene]: the "
                           "attachment modes are at the groups of its joints and loads")
     loads = [AttachmentLoad(j.group, "force", axis) for j in scene.joints for axis in AXES]
-    held, turning = {j.group for j in scene.joints}, _turning(scene)
+    loads += _scene_forces(scene, _turning(scene))
+    for joint in scene.joints:
+        loads += _moments(joint)
+    return tuple(dict.fromkeys(loads + _spins(scene)))
+
+
+@dataclass(frozen=True)
+class ScenePatterns:
+    """What a scene's static shapes are made of (``dynamics.static_shapes``): its load
+    patterns (:func:`static_loads`) and the band of frequencies it excites
+    (``config.scene_band``), below which the held body's modes are kept as well."""
+
+    loads: tuple[AttachmentLoad, ...]
+    band_hz: float
+
+
+def scene_patterns(cfg: BasisConfig, scene: Scene | None) -> ScenePatterns | None:
+    """The static shapes' patterns and band for ``shapes = "static"``, None for "modes";
+    ConfigError as :func:`static_loads` says."""
+    loads = static_loads(cfg, scene)
+    if cfg.shapes == "modes" or scene is None:
+        return None
+    return ScenePatterns(loads, scene_band(scene).max_frequency_hz)
+
+
+def static_loads(cfg: BasisConfig, scene: Scene | None) -> tuple[AttachmentLoad, ...]:
+    """The load patterns of ``shapes = "static"`` (``dynamics.static_shapes``), () for
+    "modes": every scene load along the directions it takes in the body's frame (as for the
+    attachment modes), gravity likewise, and for the rotation about the axis a the joints
+    leave, its angular acceleration ("tangential" about a) and, when the scene spins the body,
+    its centrifugal load. ConfigError when the study cannot have them: no scene, joints that
+    leave the body more than a rotation about one axis, an initial mode (the shapes hold no
+    mode), another elastic law than the co-rotated one."""
+    if cfg.shapes == "modes":
+        return ()
+    key = '[basis] shapes'
+    if scene is None:
+        raise ConfigError(key, cfg.shapes, "needs a [scene]: the shapes are the static "
+                          "responses to its loads with the body held by its joints")
+    turning = _turning(scene)
+    if turning == FREE:
+        which = ("the scene has no joints" if not scene.joints else
+                 "its joints leave the body free to turn about more than one axis")
+        raise ConfigError(key, cfg.shapes, "needs joints that hold the body up to at most a "
+                          "rotation about one axis (revolute joints on one axis, driven or "
+                          f"not, or a fixed joint); {which}")
+    if scene.initial.mode is not None:
+        raise ConfigError(key, cfg.shapes, f"holds no eigenmode, and [scene.initial] mode = "
+                          f"{scene.initial.mode} starts from one; use shapes = \"modes\"")
+    if scene.elasticity != "corotated":
+        raise ConfigError(key, cfg.shapes, f'runs the co-rotated law only, not [scene] '
+                          f'elasticity = "{scene.elasticity}"')
+    first = scene.joints[0].group
+    gravity = [AttachmentLoad(first, "gravity", d)
+               for d in _load_directions(scene.gravity, turning)]
+    turns = ([AttachmentLoad(first, "tangential", turning)] if turning != HELD else [])
+    return tuple(dict.fromkeys(_scene_forces(scene, turning) + gravity + turns
+                               + _spins(scene)))
+
+
+def _scene_forces(scene: Scene, turning: str | tuple[float, float, float]
+                  ) -> list[AttachmentLoad]:
+    """Unit forces at the groups of the scene's loads (not at a joint's: its rows take them)
+    along the directions each load takes in the body's frame, parallel ones at a group once."""
+    held = {j.group for j in scene.joints}
+    loads: list[AttachmentLoad] = []
     seen: dict[str, list[tuple[float, float, float]]] = {}
     for ld in scene.loads:
         if ld.group in held:
@@ -101,14 +183,17 @@ def attachment_loads(cfg: BasisConfig, scene: Scene | None) -> tuple[AttachmentL
             if all(_norm(_cross(d, e)) > PARALLEL for e in kept):   # f ∥ f': one load
                 kept.append(d)
                 loads.append(AttachmentLoad(ld.group, "force", d))
-    for joint in scene.joints:
-        loads += _moments(joint)
+    return loads
+
+
+def _spins(scene: Scene) -> list[AttachmentLoad]:
+    """The centrifugal loads of the axes the scene spins the body about: a drive's, or a
+    revolute joint's that the initial angular velocity has a part along."""
     spin = scene.initial.angular_velocity
     spins = {j.axis: j.group for j in scene.joints
              if j.axis is not None and (j.drive is not None or (
                  j.type == "revolute" and sum(a * w for a, w in zip(j.axis, spin)) != 0.0))}
-    loads += [AttachmentLoad(group, "centrifugal", axis) for axis, group in spins.items()]
-    return tuple(dict.fromkeys(loads))
+    return [AttachmentLoad(group, "centrifugal", axis) for axis, group in spins.items()]
 
 
 #: What the joints leave of the body's rotation: ``HELD`` (a fixed joint without a drive),

@@ -23,7 +23,7 @@ from gcms_fenicsx.config.geometry import parse_geometry, parse_mesh
 from gcms_fenicsx.dynamics.scene import Scene, parse_scene
 from gcms_fenicsx.config.material import Material, parse_material
 from gcms_fenicsx.config.modes import ModesConfig, parse_modes
-from gcms_fenicsx.config.basis import BasisConfig, attachment_loads, parse_basis
+from gcms_fenicsx.config.basis import BasisConfig, attachment_loads, parse_basis, static_loads
 from gcms_fenicsx.dynamics.basis_choice import choose_basis
 from gcms_fenicsx.config.outputs import OutputsConfig, parse_outputs
 from gcms_fenicsx.config.scene_band import scene_band
@@ -110,6 +110,7 @@ def parse_config(raw: Mapping[str, Any], source: str = "<dict>") -> StudyConfig:
     basis = parse_basis(raw.get("basis"))
     if basis.kind == "rotor" and scene is not None:
         choose_basis(basis.kind, scene)          # refused here, before any stage runs
+    static_loads(basis, scene)                   # likewise
     modes = replace(modes, attachment=attachment_loads(basis, scene) or None)
     return StudyConfig(
         geometry=geom,

@@ -9,34 +9,53 @@ from typing import Any
 import numpy as np
 
 from gcms_fenicsx.dynamics.basis_choice import choose_basis
-from gcms_fenicsx.dynamics.body import Body, elastic_modes
+from gcms_fenicsx.dynamics.body import Body, body_from_reduced, elastic_modes
 from gcms_fenicsx.dynamics.initial import initial_coordinates
 from gcms_fenicsx.dynamics.rotor import RotorBody, rotor_body
 from gcms_fenicsx.dynamics.rotor_basis import attachment_fields, generalized_loads, mode_fields
 from gcms_fenicsx.dynamics.scene import Scene, SceneError
+from gcms_fenicsx.dynamics.static_shapes import shape_model, static_shapes
 from gcms_fenicsx.files.reduced_model import ReducedModel
 from gcms_fenicsx.runtime.progress import Progress, quiet
 
 
 def in_basis(model: ReducedModel, body: Body, scene: Scene, kind: str = "full",
-             attachment: tuple[Any, ...] = (), progress: Progress = quiet) -> Body | RotorBody:
+             attachment: tuple[Any, ...] = (), progress: Progress = quiet,
+             static: Any = None) -> Body | RotorBody:
     """The body the scene runs on for ``[basis] kind`` ("full", "rotor" or "auto",
     ``basis_choice.choose_basis``): ``body`` itself, or its rotor body with the model's
     elastic modes (and, for ``attachment`` loads, ``config.basis.AttachmentLoad``, their
     attachment modes). A scene whose initial mode the rotor basis does not hold (a mode of the
     full basis beyond the model's free-free ones) runs in the full basis under "auto" and is
-    refused under "rotor"."""
+    refused under "rotor". With the scene's ``static`` patterns (``[basis] shapes =
+    "static"``, ``config.basis.scene_patterns``) the body's fields are the held body's static
+    shapes instead (``static_shapes``): the full basis on them, or the rotor basis."""
     choice = choose_basis(kind, scene)
+    shapes = None
+    if static is not None:
+        hz, shapes = static_shapes(body, scene, static)
+        progress(f"shapes: {shapes.shape[1]} static shapes of the held body: {len(hz)} held "
+                 f"modes below the scene's band of {static.band_hz:.4g} Hz"
+                 + (f" ({', '.join(f'{f:.4g}' for f in hz)} Hz)" if len(hz) else "")
+                 + f" and the responses to {len(static.loads)} load patterns")
     if choice.kind == "full":
         if kind == "auto":
             progress(f"basis: full ({choice.reason})")
-        return body
+        if shapes is None:
+            return body
+        shaped = body_from_reduced(shape_model(model, shapes))
+        progress(f"basis: full on the static shapes: {shaped.dofs} coordinates instead of "
+                 f"{body.dofs}")
+        return shaped
     assert choice.axis is not None
-    lam, psi = elastic_modes(body)
-    fields = mode_fields(psi, len(model.frequencies_hz))
-    if attachment:
-        loads = generalized_loads(body, attachment)
-        fields = np.hstack([fields, attachment_fields(body, loads, lam, psi, fields)])
+    if shapes is not None:
+        fields = shapes
+    else:
+        lam, psi = elastic_modes(body)
+        fields = mode_fields(psi, len(model.frequencies_hz))
+        if attachment:
+            loads = generalized_loads(body, attachment)
+            fields = np.hstack([fields, attachment_fields(body, loads, lam, psi, fields)])
     rotor = rotor_body(body, np.array(choice.axis, float), fields)
     outside = _initial_outside(rotor, scene)
     if outside is not None:

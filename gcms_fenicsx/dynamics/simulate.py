@@ -105,24 +105,27 @@ def elastic_law(model: ReducedModel, body: Body, scene: Scene) -> Elastic | None
 
 
 def simulate(model: ReducedModel, scene: Scene, progress: Progress = quiet, basis: str = "full",
-             attachment: tuple[Any, ...] = ()) -> tuple[Trajectory, dict]:
-    """Run ``scene`` on an exported reduced model, keeping the results in memory; ``basis``
-    and ``attachment`` as in ``run_basis.in_basis``."""
+             attachment: tuple[Any, ...] = (), static: Any = None
+             ) -> tuple[Trajectory, dict]:
+    """Run ``scene`` on an exported reduced model, keeping the results in memory; ``basis``,
+    ``attachment`` and ``static`` as in ``run_basis.in_basis``."""
     body = body_from_reduced(model)
     elastic = elastic_law(model, body, scene)
-    run_body = in_basis(model, body, scene, basis, attachment, progress)
-    return simulate_body(run_body, scene, elastic=elastic, progress=progress,
-                         model_hash=model.input_hash)
+    run_body = in_basis(model, body, scene, basis, attachment, progress, static)
+    traj, summary = simulate_body(run_body, scene, elastic=elastic, progress=progress,
+                                  model_hash=model.input_hash)
+    return traj, dict(summary, **shapes_summary(static))
 
 
 def simulate_to_file(model: ReducedModel, scene: Scene, path: Path, progress: Progress = quiet,
-                     basis: str = "full", attachment: tuple[Any, ...] = ()) -> dict:
+                     basis: str = "full", attachment: tuple[Any, ...] = (),
+                     static: Any = None) -> dict:
     """Run ``scene`` on an exported reduced model, streaming the results into ``path``
     (a temporary file beside it, renamed when the run ends, complete or not); the summary.
-    ``basis`` and ``attachment`` as in ``run_basis.in_basis``."""
+    ``basis``, ``attachment`` and ``static`` as in ``run_basis.in_basis``."""
     body = body_from_reduced(model)
     elastic = elastic_law(model, body, scene)
-    run_body = in_basis(model, body, scene, basis, attachment, progress)
+    run_body = in_basis(model, body, scene, basis, attachment, progress, static)
     with atomic_file(path) as tmp, h5py.File(tmp, "w") as f:
         def open_sink(plan: RecordPlan) -> Sink:
             return ResultsWriter(f, plan.layout, plan.block_rows,
@@ -131,7 +134,16 @@ def simulate_to_file(model: ReducedModel, scene: Scene, path: Path, progress: Pr
         summary, _ = _run(run_body, scene, open_sink, disk_capacity(tmp.parent),
                           factorize=dense_factorization, elastic=elastic, progress=progress,
                           model_hash=model.input_hash)
-    return summary
+    return dict(summary, **shapes_summary(static))
+
+
+def shapes_summary(static: Any) -> dict:
+    """What the body deformed along (``[basis] shapes``): "modes", or "static" with the load
+    patterns of its static shapes and the band of its held modes (``run_basis.in_basis``)."""
+    if static is None:
+        return {"shapes": "modes", "static_patterns": [], "static_band_hz": None}
+    return {"shapes": "static", "static_patterns": [load.label for load in static.loads],
+            "static_band_hz": static.band_hz}
 
 
 @dataclass(frozen=True)

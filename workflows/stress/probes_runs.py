@@ -40,9 +40,11 @@ def simulate_on(suite: Suite, reduced: Run, study: dict, name: str, case: str,
 
 
 def long_runs(suite: Suite) -> None:
-    """Class 5: the flexible pendulum for LONG_STEPS steps (co-rotated, SVK and in the rotor
-    basis); the crankshaft reduced once, then simulated at each drive speed in both bases (and, in a full run, the fastest with a quarter of the step:
-    does its error converge as a second-order method's, 1/16, or not)."""
+    """Class 5: the flexible pendulum for LONG_STEPS steps (co-rotated, SVK, in the rotor
+    basis and on its static shapes); the crankshaft reduced once, then simulated at each drive
+    speed in both bases and on its static shapes in the rotor basis (and, in a full run, the
+    fastest with a quarter of the step: does its error converge as a second-order method's,
+    1/16, or not)."""
     run = gcms("run", flexible_pendulum(LONG_STEPS), suite.path("long_pendulum"))
     suite.probe("long", f"flexible pendulum, {LONG_STEPS} steps", run, read_long,
                 body="pendulum", drive_factor=None)
@@ -55,6 +57,10 @@ def long_runs(suite: Suite) -> None:
     run = gcms("run", rotor, suite.path("long_pendulum_rotor"))
     suite.probe("long", f"flexible pendulum, rotor basis, {LONG_STEPS} steps", run, read_long,
                 body="pendulum", drive_factor=None)
+    static = dict(flexible_pendulum(LONG_STEPS), basis={"kind": "rotor", "shapes": "static"})
+    run = gcms("run", static, suite.path("long_pendulum_static"))
+    suite.probe("long", f"flexible pendulum, static shapes, rotor basis, {LONG_STEPS} steps",
+                run, read_long, body="pendulum", drive_factor=None)
     # with its scene: the attachment modes the runs' studies ask for, so that they reuse it
     reduced = gcms("reduce", default_study(), suite.path("long_crank_reduced"))
     suite.probe("long", "crankshaft, reduce", reduced, read_selection, body="crankshaft",
@@ -68,6 +74,11 @@ def long_runs(suite: Suite) -> None:
         simulate_on(suite, reduced, dict(driven_crankshaft(factor, steps),
                                          basis={"kind": "rotor"}),
                     f"long_crank_rotor_x{factor}", f"crankshaft, drive ×{factor}, rotor basis",
+                    drive_factor=factor)
+        simulate_on(suite, reduced, dict(driven_crankshaft(factor, steps),
+                                         basis={"kind": "rotor", "shapes": "static"}),
+                    f"long_crank_static_x{factor}",
+                    f"crankshaft, drive ×{factor}, static shapes, rotor basis",
                     drive_factor=factor)
     if not suite.quick:
         fastest = DRIVE_FACTORS[-1]
