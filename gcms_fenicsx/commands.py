@@ -98,6 +98,10 @@ def scene_files(cfg: StudyConfig, model: ReducedModel, folder: Path, progress: P
         raise ConfigError.missing("[scene]", "required to simulate: the joints, loads, "
                                   "initial motion and time span")
     results = folder / "results.h5"
+    if cfg.basis.shapes == "static" and not cfg.modes.attachment:
+        progress('note: [basis] shapes = "static" without attachment modes ([basis] attachment '
+                 f'= "{cfg.basis.attachment}"): the static shapes are solved in the span of the '
+                 "eigenmodes, not exactly")
     t0 = time.perf_counter()
     summary = pipeline.simulation_stage(model, cfg.scene, results, progress, cfg.basis.kind,
                                         cfg.modes.attachment or (),

@@ -5,9 +5,8 @@ loads use (docs/design.md §3.7): a unit force along x, y and z at every joint's
 along every direction a load can take in the body's frame at a load's group (its own
 direction when a fixed joint without a drive holds every rotation; its components in the
 plane ⊥ a and along a when the joints let the body turn about a only; x, y and z otherwise),
-and a
-unit moment about every axis a joint holds the group's rotation about (two for a revolute
-joint, three for a fixed one, one more for a drive), distributed over the group as that
+and a unit moment about every axis a joint holds the group's rotation about (two for a
+revolute joint, three for a fixed one, one more for a drive), distributed over the group as that
 joint's moment row distributes its reaction (the lever the row takes, ``joints.lever``, which
 depends on the axis the joint turns about: ``turning``), and, for every axis the scene spins
 the body about (a drive's, or a revolute joint's the initial angular velocity has a part
@@ -75,7 +74,7 @@ class AttachmentLoad:
     of 1 m/s² along it ("gravity")."""
 
     group: str
-    kind: str                                  # "force", "moment" or "centrifugal"
+    kind: str          # "force", "moment", "centrifugal"; "tangential", "gravity" (static only)
     direction: tuple[float, float, float]
     #: the axis the joint's rows are blind to turning about (its moment rows' lever), if any
     turning: tuple[float, float, float] | None = None
@@ -128,8 +127,9 @@ def scene_patterns(cfg: BasisConfig, scene: Scene | None) -> ScenePatterns | Non
     """The static shapes' patterns and band for ``shapes = "static"``, None for "modes";
     ConfigError as :func:`static_loads` says."""
     loads = static_loads(cfg, scene)
-    if cfg.shapes == "modes" or scene is None:
+    if cfg.shapes == "modes":
         return None
+    assert scene is not None                   # static_loads refuses "static" without one
     return ScenePatterns(loads, scene_band(scene).max_frequency_hz)
 
 

@@ -308,12 +308,16 @@ def projected(force: Any, A: Any) -> Any:
 
 
 def elastic_modes(body: Body) -> tuple[np.ndarray, np.ndarray]:
-    """Eigenvalues and Mr-orthonormal eigenvectors of (Kr, Mr), ascending (dense bodies).
+    """Eigenvalues and Mr-orthonormal eigenvectors of (Kr, Mr), ascending (dense bodies); the
+    first six are the rigid modes."""
+    return mass_normalised_modes(np.asarray(body.stiffness), np.asarray(body.mass))
 
-    With L Lᵀ = Mr: L⁻¹ Kr L⁻ᵀ y = λ y and ψ = L⁻ᵀ y. The first six are the rigid modes.
-    """
-    L_inv = np.linalg.inv(np.linalg.cholesky(np.asarray(body.mass)))
-    A = L_inv @ np.asarray(body.stiffness) @ L_inv.T
+
+def mass_normalised_modes(K: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvalues and M-orthonormal eigenvectors of (K, M), ascending: with L Lᵀ = M,
+    L⁻¹ K L⁻ᵀ y = λ y and ψ = L⁻ᵀ y."""
+    L_inv = np.linalg.inv(np.linalg.cholesky(0.5 * (M + M.T)))
+    A = L_inv @ K @ L_inv.T
     lam, Y = np.linalg.eigh(0.5 * (A + A.T))
     return lam, L_inv.T @ Y
 

@@ -139,7 +139,9 @@ class Recorder:
 
     ``lift``: B when the run's coordinates are p with q = B p (the rotor basis): the rows
     hold p, and every series, ``coordinates/q`` and ``coordinates/v`` too, is the full basis
-    ``body``'s, taken at B p (so results.h5 reads with reduced.h5 whatever the basis).
+    ``body``'s, taken at B p (so results.h5 reads with reduced.h5 in either basis; a body on
+    static shapes in the full basis is its own model's, ``static_shapes.shape_model``, and so
+    are its coordinates).
     """
 
     def __init__(self, body: Body, constraints: Constraints, forces: ExternalForces,

@@ -38,6 +38,9 @@ def in_basis(model: ReducedModel, body: Body, scene: Scene, kind: str = "full",
                  f"modes below the scene's band of {static.band_hz:.4g} Hz"
                  + (f" ({', '.join(f'{f:.4g}' for f in hz)} Hz)" if len(hz) else "")
                  + f" and the responses to {len(static.loads)} load patterns")
+        if not shapes.shape[1]:
+            progress("warning: no static shapes: the scene loads the body with nothing and "
+                     "excites none of its held modes, so it runs rigid")
     if choice.kind == "full":
         if kind == "auto":
             progress(f"basis: full ({choice.reason})")

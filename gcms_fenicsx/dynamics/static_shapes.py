@@ -10,22 +10,25 @@ acceleration (the field a × (X − x̄_G)) and of its spin (the centrifugal fie
 scene excites (``config.scene_band``) answer to these quasi-statically, those in it
 dynamically: so the shapes are the held modes below the band and the static responses to the
 patterns (the mode-acceleration idea; load-dependent Ritz vectors of Wilson, Yuan & Dickens,
-Earthquake Eng. Struct. Dyn. 10, 1982, their first block). A response is
+Earthquake Eng. Struct. Dyn. 10, 1982, their first block). Held means every joint row and, for
+a rigid motion ψ the joints leave free (the turning of undriven revolute joints), its inertia
+relief (Mr ψ)ᵀ u = 0 (:func:`held_rows`): a response is
 
     [Kr  Cᵀ] [u]   [f]
-    [C   0 ] [λ] = [0]        (``statics.held_static``, every joint row; a revolute joint
-                               without a drive is held about its axis for it),
+    [C   0 ] [λ] = [0],
 
 and a held mode an eigenvector of (Kr, Mr) on C u = 0 (:func:`held_modes`), both in the
-reduced model's span — with the scene's attachment modes the span holds the full model's u
-(design §3.7), so the Galerkin u is the full model's. The shapes are made Mr-orthogonal to the
-rigid modes and to each other, Mr-normalised; one that lies, to ``RELATIVE_RESIDUAL`` of its
-size, in the span of those before it adds nothing and is left out.
+reduced model's span. The right-hand side K u = f − Cᵀλ is self-equilibrated, and the
+relief's part (Mr ψ) is a rigid inertia field, which inertia relief removes: so with the
+scene's attachment modes the span holds the full model's u (design §3.7) and the Galerkin u
+is the full model's, for every Nm. The shapes are made Mr-orthogonal to the rigid modes and to
+each other, Mr-normalised; one that lies, to ``RELATIVE_RESIDUAL`` of its size, in the span of
+those before it adds nothing and is left out.
 
 They become the body's fields either in the rotor basis (three columns each, ``rotor``) or in
-the full one: :func:`shape_model` is the reduced model whose fields are the shapes' x, y and z
-components, F T (with the four rigid fields kept), so Mr, Kr and the gravity forces transform
-as (T ⊗ I3)ᵀ · (T ⊗ I3): the same model restricted to the shapes. NumPy only.
+the full one: :func:`shape_model` is the reduced model whose fields span the shapes' x, y and
+z components, F T (with the four rigid fields kept), so Mr, Kr and the gravity forces
+transform as (T ⊗ I3)ᵀ · (T ⊗ I3): the same model restricted to the shapes. NumPy only.
 """
 from __future__ import annotations
 
@@ -34,67 +37,79 @@ from typing import Any
 
 import numpy as np
 
-from gcms_fenicsx.dynamics.body import Body
+from gcms_fenicsx.dynamics.body import Body, mass_normalised_modes
 from gcms_fenicsx.dynamics.joints import build_constraints
 from gcms_fenicsx.dynamics.rotor_basis import RELATIVE_RESIDUAL, generalized_loads
-from gcms_fenicsx.dynamics.scene import Drive, Scene
-from gcms_fenicsx.dynamics.statics import held_static
+from gcms_fenicsx.dynamics.scene import Scene
+from gcms_fenicsx.dynamics.statics import dense_kkt_solve
 from gcms_fenicsx.files.reduced_model import ReducedModel
 
-RIGID_FIELDS = 4
+RIGID_FIELD_COUNT = 4
+#: Singular values of the rows' action on the rigid motions below this fraction of the largest
+#: leave that motion free (round-off: the rows' own are of order one).
+FREE_MOTION = 1e-8
 
 
-def held_scene(scene: Scene) -> Scene:
-    """The scene with nothing left to turn: when no joint carries a drive, the first revolute
-    one is held about its axis (a drive at rest), so the static problem has one solution."""
-    if any(j.drive is not None for j in scene.joints):
-        return scene
-    joints = list(scene.joints)
-    for k, j in enumerate(joints):
-        if j.type == "revolute":
-            joints[k] = replace(j, drive=Drive(angular_velocity=0.0))
-            break
-    return replace(scene, joints=tuple(joints))
+def held_rows(body: Body, scene: Scene) -> tuple[np.ndarray, int]:
+    """(C, f): the rows that hold ``body`` for its static shapes — its joints' independent rows
+    (``joints.build_constraints``) and, for each of the f rigid motions ψ they leave free (the
+    turning about the axis of undriven revolute joints), its inertia relief (Mr ψ)ᵀ u = 0: the
+    reaction is the inertia of an acceleration along ψ, distributed as the mass is, not a
+    moment at a joint (module docstring)."""
+    c = build_constraints(body, scene.joints, body.q0)
+    C = c.jacobian(c.directions) if c.count else np.zeros((0, body.dofs))
+    rigid = body.rigid_velocities(body.q0)
+    _, s, Vt = np.linalg.svd(C @ rigid)
+    held = int(np.sum(s > FREE_MOTION * s[0])) if len(s) and s[0] > 0.0 else 0
+    free = rigid @ Vt[held:].T
+    return np.vstack([C, (np.asarray(body.mass) @ free).T]), free.shape[1]
 
 
-def held_modes(body: Body, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
-    """The modes of ``body`` held by ``scene``'s joints (``held_scene``) in its span, lowest
-    first: (frequencies in Hz, modes n × k). With the rows' null space Z (C Z = 0), the
-    eigenpairs of (Zᵀ Kr Z, Zᵀ Mr Z) (Rayleigh–Ritz in span Φ: upper bounds of the full
+def held_modes(body: Body, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The modes of ``body`` held by the independent ``rows`` C (``held_rows``) in its span,
+    lowest first: (frequencies in Hz, modes n × k). With the rows' null space Z (C Z = 0),
+    the eigenpairs of (Zᵀ Kr Z, Zᵀ Mr Z) (Rayleigh–Ritz in span Φ: upper bounds of the full
     model's held frequencies, close for the lowest)."""
-    c = build_constraints(body, held_scene(scene).joints, body.q0)
-    Z = np.linalg.svd(c.jacobian(c.directions))[2][c.count:].T
-    Mz, Kz = Z.T @ np.asarray(body.mass) @ Z, Z.T @ np.asarray(body.stiffness) @ Z
-    L_inv = np.linalg.inv(np.linalg.cholesky(0.5 * (Mz + Mz.T)))
-    A = L_inv @ Kz @ L_inv.T
-    lam, Y = np.linalg.eigh(0.5 * (A + A.T))
-    return np.sqrt(np.maximum(lam, 0.0)) / (2.0 * np.pi), Z @ (L_inv.T @ Y)
+    Z = np.linalg.svd(rows)[2][rows.shape[0]:].T
+    lam, Y = mass_normalised_modes(Z.T @ np.asarray(body.stiffness) @ Z,
+                                   Z.T @ np.asarray(body.mass) @ Z)
+    return np.sqrt(np.maximum(lam, 0.0)) / (2.0 * np.pi), Z @ Y
 
 
 def static_shapes(body: Body, scene: Scene, patterns: Any,
                   tolerance: float = RELATIVE_RESIDUAL) -> tuple[np.ndarray, np.ndarray]:
     """(the held modes' frequencies in Hz, the shapes): the held body's modes below the band
     ``patterns.band_hz``, then its static responses to the load patterns ``patterns.loads``
-    (``config.basis.ScenePatterns``), each a q of the full basis (n × k),
-    Mr-orthonormal and Mr-orthogonal to the rigid modes (module docstring)."""
-    U = held_static(body, held_scene(scene),
-                    generalized_loads(body, patterns.loads)).displacement
-    hz, modes = held_modes(body, scene)
+    (``config.basis.ScenePatterns``; the angular acceleration's, "tangential", only when a
+    joint holds the turning: when it is free its inertia relief holds it), each a q of the
+    full basis (n × k), Mr-orthonormal and Mr-orthogonal to the rigid modes (module
+    docstring)."""
+    rows, free = held_rows(body, scene)
+    loads = [ld for ld in patterns.loads if not (free and ld.kind == "tangential")]
+    F = generalized_loads(body, loads)
+    U = dense_kkt_solve(body.stiffness, rows,
+                        np.vstack([F, np.zeros((rows.shape[0], F.shape[1]))]))[:body.dofs]
+    hz, modes = held_modes(body, rows)
     below = hz < patterns.band_hz
-    U = np.hstack([modes[:, below], U])
+    return hz[below], _orthonormal(body, np.hstack([modes[:, below], U]), tolerance)
+
+
+def _orthonormal(body: Body, U: np.ndarray, tolerance: float) -> np.ndarray:
+    """The columns of U made Mr-orthogonal to the rigid modes and to those before them (twice:
+    round-off), Mr-normalised; one whose part left is below ``tolerance`` of it is dropped."""
     Mr = np.asarray(body.mass)
     kept = body.rigid_velocities(body.q0)
     kept = kept @ np.linalg.inv(np.linalg.cholesky(kept.T @ Mr @ kept)).T   # Mr-orthonormal
     shapes = []
     for u in U.T:
         size = np.sqrt(u @ Mr @ u)
-        for _ in range(2):                                                    # twice: round-off
+        for _ in range(2):
             u = u - kept @ (kept.T @ (Mr @ u))
         norm = np.sqrt(u @ Mr @ u)
         if size > 0.0 and norm > tolerance * size:
             shapes.append(u / norm)
             kept = np.column_stack([kept, u / norm])
-    return hz[below], np.column_stack(shapes) if shapes else np.zeros((body.dofs, 0))
+    return np.column_stack(shapes) if shapes else np.zeros((body.dofs, 0))
 
 
 def shape_model(model: ReducedModel, shapes: np.ndarray,
@@ -113,13 +128,13 @@ def shape_model(model: ReducedModel, shapes: np.ndarray,
     components = shapes.T.reshape(k, nf, 3).transpose(1, 0, 2).reshape(nf, 3 * k)
     L = np.linalg.cholesky(model.mass[::3, ::3])               # G = Fᵀ Ms F = L Lᵀ
     Y = L.T @ components
-    Q, _ = np.linalg.qr(L.T[:, :RIGID_FIELDS])                 # the rigid fields, in Lᵀ
+    Q, _ = np.linalg.qr(L.T[:, :RIGID_FIELD_COUNT])                 # the rigid fields, in Lᵀ
     for _ in range(2):
         Y -= Q @ (Q.T @ Y)
     U, sigma, _ = np.linalg.svd(Y, full_matrices=False)
     kept = U[:, sigma > tolerance * sigma[0]] if k else U[:, :0]
-    T = np.hstack([np.eye(nf)[:, :RIGID_FIELDS], np.linalg.solve(L.T, kept)])
-    names = model.field_names[:RIGID_FIELDS] + tuple(
+    T = np.hstack([np.eye(nf)[:, :RIGID_FIELD_COUNT], np.linalg.solve(L.T, kept)])
+    names = model.field_names[:RIGID_FIELD_COUNT] + tuple(
         f"static_field{i + 1}" for i in range(kept.shape[1]))
     T3 = np.kron(T, np.eye(3))
 
@@ -131,4 +146,3 @@ def shape_model(model: ReducedModel, shapes: np.ndarray,
                    gravity=T3.T @ model.gravity, fields=model.fields @ T,
                    field_names=names, frequencies_hz=np.zeros(0),
                    reduced_frequencies_hz=np.zeros(0), svk=None)
-

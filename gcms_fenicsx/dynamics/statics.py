@@ -50,11 +50,10 @@ def held_static(body: Body, scene: Scene, load: np.ndarray | None = None,
                 mass_solve: MassSolve | None = None,
                 kkt_solve: KKTSolve = dense_kkt_solve) -> HeldStatic:
     """The static response of ``body`` held by ``scene``'s joints under ``load`` (n,), by
-    default the scene's gravity and loads at t = 0, or under each column of ``load`` (n, k)
-    (then u is (n, k) and λ (m, k)) (module docstring). ``mass_solve``: as in
+    default the scene's gravity and loads at t = 0 (module docstring). ``mass_solve``: as in
     ``joints.build_constraints`` (which rows are independent)."""
     c = build_constraints(body, scene.joints, body.q0, mass_solve)
     f = external_forces(body, scene.gravity, scene.loads)(0.0) if load is None else load
     sol = kkt_solve(body.stiffness, c.jacobian(c.directions),
-                    np.concatenate([f, np.zeros((c.count,) + f.shape[1:])]))
+                    np.concatenate([f, np.zeros(c.count)]))
     return HeldStatic(sol[:body.dofs], sol[body.dofs:])
