@@ -128,7 +128,7 @@ def shape_model(model: ReducedModel, shapes: np.ndarray,
     components = shapes.T.reshape(k, nf, 3).transpose(1, 0, 2).reshape(nf, 3 * k)
     L = np.linalg.cholesky(model.mass[::3, ::3])               # G = Fᵀ Ms F = L Lᵀ
     Y = L.T @ components
-    Q, _ = np.linalg.qr(L.T[:, :RIGID_FIELD_COUNT])                 # the rigid fields, in Lᵀ
+    Q, _ = np.linalg.qr(L.T[:, :RIGID_FIELD_COUNT])           # the rigid fields, in Lᵀ
     for _ in range(2):
         Y -= Q @ (Q.T @ Y)
     U, sigma, _ = np.linalg.svd(Y, full_matrices=False)
