@@ -316,7 +316,7 @@ def elastic_modes(body: Body) -> tuple[np.ndarray, np.ndarray]:
 def mass_normalised_modes(K: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Eigenvalues and M-orthonormal eigenvectors of (K, M), ascending: with L Lᵀ = M,
     L⁻¹ K L⁻ᵀ y = λ y and ψ = L⁻ᵀ y."""
-    L_inv = np.linalg.inv(np.linalg.cholesky(0.5 * (M + M.T)))
+    L_inv = np.linalg.inv(np.linalg.cholesky(M))
     A = L_inv @ K @ L_inv.T
     lam, Y = np.linalg.eigh(0.5 * (A + A.T))
     return lam, L_inv.T @ Y

@@ -169,7 +169,7 @@ def generalized_loads(body: Body, loads: Any) -> np.ndarray:
     span — the joint's moment row itself (``joints.moment_lever``); the centrifugal load of a
     spin at 1 rad/s about e is Mr applied to the field (I − e eᵀ)(X − x̄_G), the inertia of
     an angular acceleration of 1 rad/s² about e ("tangential") Mr applied to e × (X − x̄_G),
-    that of an acceleration of 1 m/s² along e ("gravity") Mr applied to the field e."""
+    that of an acceleration of 1 m/s² along e ("gravity") the body's gravity forces for e."""
     cols = []
     for load in loads:
         g = body.groups[load.group]
@@ -177,15 +177,14 @@ def generalized_loads(body: Body, loads: Any) -> np.ndarray:
         if load.kind == "force":
             cols.append(np.kron(g.position, direction))
             continue
-        radial = body.q0.reshape(-1, 3) - np.outer(body.unit, g.center_m)
-        if load.kind == "centrifugal":
-            cols.append(body.mass @ (radial - np.outer(radial @ direction, direction)).ravel())
-            continue
-        if load.kind == "tangential":
-            cols.append(body.mass @ (radial @ skew(direction).T).ravel())
-            continue
         if load.kind == "gravity":
-            cols.append(body.mass @ np.kron(body.unit, direction))
+            cols.append(body.gravity @ direction)
+            continue
+        if load.kind in ("centrifugal", "tangential"):
+            radial = body.q0.reshape(-1, 3) - np.outer(body.unit, g.center_m)
+            field = (radial - np.outer(radial @ direction, direction)
+                     if load.kind == "centrifugal" else radial @ skew(direction).T)
+            cols.append(body.mass @ field.ravel())
             continue
         d = moment_lever(g.span, load.group, load.direction, load.turning)
         cols.append(np.kron(g.affine @ d, np.cross(direction, d)))
