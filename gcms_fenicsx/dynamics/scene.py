@@ -17,7 +17,8 @@ damping = { alpha = 0.0, beta = 0.0 }   # co-rotated Rayleigh: α Mr + β Kr on 
                                         # frame follows its bending is damped by β, hardly α)
 solver = { tolerance = 1e-10, max_iterations = 25, jacobian = "rotated" }
 initial = { velocity = [0, 0, 0], angular_velocity = [0, 0, 0], mode = 1, amplitude = 1e-3,
-            direction = [0, 0, 1] }
+            direction = [0, 0, 1] }     # or equilibrium = true (instead of a mode): start
+                                        # deformed in the held body's static equilibrium
 outputs = { groups = ["end_xL"], every = 1, energy = true, constraint_forces = true,
             coordinates = false, field_times = [0.5] }
 
@@ -33,6 +34,7 @@ group = "end_xL"
 force = [0.0, 0.0, -10.0]      # N, on the group's weighted mean position
 time = "harmonic"              # constant, ramp or harmonic
 frequency_hz = 20.0
+ramp_time = 0.05               # s, optional: the amplitude rises in over it (cosine ramp)
 ```
 
 The initial mode shape (``dynamics.initial``): ``mode = N`` is the N-th elastic eigenvector of
@@ -46,15 +48,14 @@ solver returns any basis of the pair. So:
   the direction: a ∝ D_iᵀ d at the node i = argmax_i ‖D_iᵀ d‖ (D_i the 3 × k displacement of the
   cluster's k eigenvectors at node i, d the unit direction), so the displacement there, D_i a,
   has the largest component along d any node and any unit combination reach, and it is
-  positive. It does not depend on the basis the solver returned for the cluster.
+  positive, whatever basis the solver returned for the cluster.
 - without it, the sign of the eigenvector is fixed so that the largest nodal displacement's
   largest-magnitude component is positive (and within a repeated pair the solver's basis
   stands: give a direction when it matters).
 
-Ties: nodal values within 1 % (``initial.TIE``) of the largest count as equal — a symmetric
-body's mirror nodes, such as the two ends of a beam's antisymmetric mode, differ only by its
-mesh — and the node first in (x, y, z) order is taken (likewise the first of tied components),
-so near-identical bodies get the same shape and sign.
+Ties: nodal values within 1 % (``initial.TIE``) of the largest count as equal (a symmetric
+body's mirror nodes differ only by its mesh) and the node first in (x, y, z) order is taken
+(likewise the first of tied components), so near-identical bodies get the same shape and sign.
 """
 from __future__ import annotations
 
@@ -140,7 +141,10 @@ class Joint:
 
 @dataclass(frozen=True)
 class Load:
-    """A force on a node group's weighted mean position, in the global frame: F s(t)."""
+    """A force on a node group's weighted mean position, in the global frame: F s(t).
+
+    ``time = "harmonic"`` with ``ramp_time_s`` T > 0 rises in, s(t) = ½ (1 − cos(π t / T))
+    sin(2π f t + φ) for t < T: from zero with zero rate, not a step that rings every mode."""
 
     name: str
     group: str
@@ -151,11 +155,13 @@ class Load:
     phase_deg: float = 0.0
 
     def factor(self, t: float) -> float:
-        """s(t): 1, min(t / T, 1), or sin(2π f t + φ)."""
+        """s(t): 1, min(t / T, 1), or sin(2π f t + φ) (risen in over T if T > 0)."""
         if self.time == "ramp":
             return min(t / self.ramp_time_s, 1.0)
         if self.time == "harmonic":
-            return math.sin(2.0 * math.pi * self.frequency_hz * t + math.radians(self.phase_deg))
+            wave = math.sin(2.0 * math.pi * self.frequency_hz * t + math.radians(self.phase_deg))
+            T = self.ramp_time_s
+            return wave if t >= T else 0.5 * (1.0 - math.cos(math.pi * t / T)) * wave
         return 1.0
 
 
@@ -164,13 +170,15 @@ class Initial:
     """Initial state: a rigid velocity field v + ω × (x − c), and optionally an elastic
     deformation in one elastic mode of the reduced model, scaled to a largest nodal
     displacement of ``amplitude_m``, oriented along the unit ``direction`` if given (module
-    docstring)."""
+    docstring), or (``equilibrium``) at rest in its held static equilibrium under the forces
+    at t = 0 (``statics.static_equilibrium``), instead of dropping into its sag and ringing."""
 
     velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     angular_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     mode: int | None = None
     amplitude_m: float = 0.0
     direction: tuple[float, float, float] | None = None
+    equilibrium: bool = False
 
 
 @dataclass(frozen=True)
@@ -220,6 +228,11 @@ class Scene:
         """Steps of time_step to reach end_time: the run ends at the first step at or beyond
         it (exactly on it when end_time is a multiple of time_step, to 1e-9 of a step)."""
         return max(1, math.ceil(self.end_time_s / self.time_step_s - 1e-9))
+
+    @property
+    def loads_risen_s(self) -> float:
+        """The time by which every load has risen in: the longest ramp_time (0 if none ramps)."""
+        return max((load.ramp_time_s for load in self.loads), default=0.0)
 
     def warnings(self) -> list[str]:
         """What in the scene predicts an inaccurate run, one line each: a drive that turns its
@@ -279,7 +292,8 @@ def _load(t: Table, index: int) -> Load:
     name = _name(t, f"load{index}_{group}")
     force = t.vector("force")
     time = t.choice("time", LOAD_TIMES, "constant")
-    ramp = t.positive("ramp_time") if time == "ramp" else 0.0
+    ramp = (t.positive("ramp_time") if time == "ramp" else
+            t.number("ramp_time", 0.0, low=0.0) if time == "harmonic" else 0.0)
     freq, phase = (t.positive("frequency_hz"), t.number("phase_deg", 0.0)) \
         if time == "harmonic" else (0.0, 0.0)
     t.finish()
@@ -337,11 +351,13 @@ def parse_scene(raw: Mapping[str, Any] | None) -> Scene | None:
     for key in ("amplitude", "direction"):
         if mode is None and i.has(key):
             raise i.error(key, i.get(key), "needs mode = N: the elastic mode it shapes")
+    equilibrium = i.boolean("equilibrium", False)
     initial = Initial(velocity=i.vector("velocity", (0.0, 0.0, 0.0)),
                       angular_velocity=i.vector("angular_velocity", (0.0, 0.0, 0.0)),
                       mode=mode,
                       amplitude_m=i.positive("amplitude") if mode is not None else 0.0,
-                      direction=_axis(i, "direction") if i.has("direction") else None)
+                      direction=_axis(i, "direction") if i.has("direction") else None,
+                      equilibrium=equilibrium)
     i.finish()
 
     o = Table("scene.outputs", t.subtable("outputs"))
@@ -368,6 +384,11 @@ def parse_scene(raw: Mapping[str, Any] | None) -> Scene | None:
 
     joints = tuple(_joint(jt) for jt in t.tables("joints"))
     loads = tuple(_load(lt, k) for k, lt in enumerate(t.tables("loads")))
+    moving = [j.name for j in joints if j.drive is not None and j.drive.angle(0.0)[1] != 0.0]
+    if equilibrium and (mode or any(initial.velocity + initial.angular_velocity) or moving):
+        raise i.error("equilibrium", True, "starts the body at rest, held by every joint: not "
+                      "with mode, velocity or angular_velocity, nor with a drive turning at "
+                      "t = 0" + (f" (joint {moving[0]!r}: give it a ramp_time)" if moving else ""))
     _unique("joints", [j.name for j in joints])
     _unique("loads", [ld.name for ld in loads])
     scene = Scene(end_time_s=end, time_step_s=step,

@@ -44,6 +44,7 @@ from gcms_fenicsx.dynamics.rotation import InvertedBodyError
 from gcms_fenicsx.dynamics.rotor import RotorBody
 from gcms_fenicsx.dynamics.run_basis import in_basis, rotor_summary
 from gcms_fenicsx.dynamics.scene import Scene, SceneError
+from gcms_fenicsx.dynamics.statics import KKTSolve, dense_kkt_solve, static_equilibrium
 from gcms_fenicsx.dynamics.svk import CoefficientsError, SVKLaw, svk_state
 from gcms_fenicsx.files.outputs import atomic_file, finite_json
 from gcms_fenicsx.runtime.progress import Progress, quiet
@@ -69,19 +70,22 @@ def modal_history(body: Body, q: np.ndarray, mode: int) -> np.ndarray:
 def simulate_body(body: Body | RotorBody, scene: Scene, *,
                   factorize: Factorize = dense_factorization,
                   elastic: Elastic | None = None, progress: Progress = quiet,
-                  model_hash: str = "") -> tuple[Trajectory, dict]:
+                  model_hash: str = "", kkt_solve: KKTSolve = dense_kkt_solve
+                  ) -> tuple[Trajectory, dict]:
     """Run ``scene`` on ``body``: the recorded trajectory (in memory) and the summary
     (``summary.json``). ``factorize`` and ``elastic`` as in
     :class:`~gcms_fenicsx.dynamics.integrator.GeneralizedAlpha`; ``elastic`` is given exactly
     when the scene's ``elasticity`` is not the co-rotated law (SceneError otherwise), so the
-    summary names the law that ran."""
+    summary names the law that ran. ``kkt_solve`` solves the held body's statics of an
+    equilibrium start (``statics``; sparse for the full-order model)."""
     nodes = _full(body).nodes_m
 
     def open_sink(plan: RecordPlan) -> Sink:
         return MemorySink(plan.layout, plan.rows, nodes if plan.snapshot_steps else None)
 
     summary, traj = _run(body, scene, open_sink, memory_capacity(), factorize=factorize,
-                         elastic=elastic, progress=progress, model_hash=model_hash)
+                         elastic=elastic, progress=progress, model_hash=model_hash,
+                         kkt_solve=kkt_solve)
     assert traj is not None
     return traj, summary
 
@@ -181,7 +185,8 @@ def _full(body: Body | RotorBody) -> Body:
 
 def _run(body: Body | RotorBody, scene: Scene, open_sink: OpenSink, capacity: Capacity, *,
          factorize: Factorize, elastic: Elastic | None, progress: Progress,
-         model_hash: str) -> tuple[dict, Trajectory | None]:
+         model_hash: str, kkt_solve: KKTSolve = dense_kkt_solve
+         ) -> tuple[dict, Trajectory | None]:
     """Set up, step, record into the sink ``open_sink`` gives: the summary and what the sink
     returns when closed."""
     full = _full(body)
@@ -192,7 +197,7 @@ def _run(body: Body | RotorBody, scene: Scene, open_sink: OpenSink, capacity: Ca
                             "coefficients)" if elastic is None else
                             "runs the co-rotated law, and another elastic law was given"))
     t_setup = time.perf_counter()
-    run = prepare_run(body, scene, capacity, factorize, elastic, progress)
+    run = prepare_run(body, scene, capacity, factorize, elastic, progress, kkt_solve)
     sink = open_sink(run.plan)
     recorder = Recorder(full, run.constraints, run.forces, scene.outputs, run.plan,
                         scene.time_step_s, sink,
@@ -211,11 +216,14 @@ def _run(body: Body | RotorBody, scene: Scene, open_sink: OpenSink, capacity: Ca
 
 def prepare_run(body: Body | RotorBody, scene: Scene, capacity: Capacity,
                 factorize: Factorize = dense_factorization, elastic: Elastic | None = None,
-                progress: Progress = quiet) -> Prepared:
+                progress: Progress = quiet, kkt_solve: KKTSolve = dense_kkt_solve) -> Prepared:
     """Initial coordinates, Mr⁻¹, the independent joint rows, the results' budget (refused
     before anything is allocated if over ``capacity``), the stepper and the initial state.
     A rotor body starts from the rotor coordinates nearest the full basis's initial state
-    (its velocity: nearest in kinetic energy; the rest is removed as the joints remove it)."""
+    (its velocity: nearest in kinetic energy; the rest is removed as the joints remove it).
+    With ``[scene.initial] equilibrium`` the body starts at rest in its held static
+    equilibrium under the forces at t = 0 (``statics.static_equilibrium``, in its own
+    coordinates and law; the bordered systems solved by ``kkt_solve``)."""
     for warning in scene.warnings():
         progress(f"warning: {warning}")
     full = _full(body)
@@ -244,6 +252,12 @@ def prepare_run(body: Body | RotorBody, scene: Scene, capacity: Capacity,
     damping = RayleighDamping(scene.damping_alpha, scene.damping_beta)
     integrator = GeneralizedAlpha(body, constraints, forces, scene.time_step_s, scene.rho_inf,
                                   damping, scene.solver, factorize, elastic)
+    if scene.initial.equilibrium:
+        q, steps = static_equilibrium(body, constraints, forces, integrator.elastic, q,
+                                      integrator.tolerance_m, kkt_solve)
+        progress(f"initial state: at rest in its static equilibrium under the forces at t = 0 "
+                 f"({steps} Newton step{'s' if steps > 1 else ''})")
+        q_full = body.coordinates @ q if isinstance(body, RotorBody) else q
     v_rigid = full.rigid_velocity(q_full, np.array(scene.initial.velocity),
                                   np.array(scene.initial.angular_velocity))
     kinetic_given = 0.5 * float(v_rigid @ (full.mass @ v_rigid))

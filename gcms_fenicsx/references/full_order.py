@@ -50,16 +50,19 @@ def sparse_factorization(A: scipy.sparse.spmatrix) -> Solve:
     return lu.solve
 
 
-def full_held_static(full: Body, scene: Scene, load: np.ndarray | None = None) -> HeldStatic:
-    """``dynamics.statics.held_static`` of the full model: its joint rows chosen with a sparse
-    LU of M, the bordered system [K Cᵀ; C 0] solved with one sparse LU."""
-    def kkt_solve(K: scipy.sparse.spmatrix, C: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-        rows = scipy.sparse.csr_matrix(C)
-        return sparse_factorization(scipy.sparse.bmat([[scipy.sparse.csr_matrix(K), rows.T],
-                                                       [rows, None]]))(rhs)
+def sparse_kkt_solve(K: scipy.sparse.spmatrix, C: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """[u; λ] of the bordered system [K Cᵀ; C 0] by one sparse LU (``statics.KKTSolve``)."""
+    rows = scipy.sparse.csr_matrix(C)
+    return sparse_factorization(scipy.sparse.bmat([[scipy.sparse.csr_matrix(K), rows.T],
+                                                   [rows, None]]))(rhs)
 
+
+def full_held_static(full: Body, scene: Scene, load: np.ndarray | None = None,
+                     time_s: float = 0.0) -> HeldStatic:
+    """``dynamics.statics.held_static`` of the full model: its joint rows chosen with a sparse
+    LU of M, the bordered system solved with :func:`sparse_kkt_solve`."""
     return held_static(full, scene, load, mass_factorization(full, sparse_factorization),
-                       kkt_solve)
+                       sparse_kkt_solve, time_s)
 
 
 def full_order_body(model: FEModel, groups: dict[str, tuple[np.ndarray, np.ndarray]]) -> Body:
