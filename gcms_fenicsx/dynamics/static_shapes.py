@@ -41,13 +41,10 @@ from gcms_fenicsx.dynamics.body import Body, mass_normalised_modes
 from gcms_fenicsx.dynamics.joints import build_constraints
 from gcms_fenicsx.dynamics.rotor_basis import RELATIVE_RESIDUAL, generalized_loads
 from gcms_fenicsx.dynamics.scene import Scene
-from gcms_fenicsx.dynamics.statics import dense_kkt_solve
+from gcms_fenicsx.dynamics.statics import dense_kkt_solve, free_rigid_motions
 from gcms_fenicsx.files.reduced_model import ReducedModel
 
 RIGID_FIELD_COUNT = 4
-#: Singular values of the rows' action on the rigid motions below this fraction of the largest
-#: leave that motion free (round-off: the rows' own are of order one).
-FREE_MOTION = 1e-8
 
 
 def held_rows(body: Body, scene: Scene) -> tuple[np.ndarray, int]:
@@ -58,10 +55,7 @@ def held_rows(body: Body, scene: Scene) -> tuple[np.ndarray, int]:
     moment at a joint (module docstring)."""
     c = build_constraints(body, scene.joints, body.q0)
     C = c.jacobian(c.directions) if c.count else np.zeros((0, body.dofs))
-    rigid = body.rigid_velocities(body.q0)
-    _, s, Vt = np.linalg.svd(C @ rigid)
-    held = int(np.sum(s > FREE_MOTION * s[0])) if len(s) and s[0] > 0.0 else 0
-    free = rigid @ Vt[held:].T
+    free = free_rigid_motions(C, body.rigid_velocities(body.q0))
     return np.vstack([C, (np.asarray(body.mass) @ free).T]), free.shape[1]
 
 

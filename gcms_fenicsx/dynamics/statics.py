@@ -28,9 +28,10 @@ from gcms_fenicsx.dynamics.loads import ExternalForces, external_forces
 from gcms_fenicsx.dynamics.rotation import InvertedBodyError
 from gcms_fenicsx.dynamics.scene import Scene, SceneError
 
-#: The joints hold a rigid motion when the rows move it by more than this fraction of the
-#: largest singular value of C W (W: the body's six rigid velocities).
-HELD_RIGID = 1e-9
+#: The rows C leave a rigid motion free when they move it by less than this fraction of the
+#: largest singular value of C W (W: the body's six rigid velocities; round-off: the rows'
+#: own singular values are of order one).
+FREE_MOTION = 1e-8
 #: Newton steps the static equilibrium of a start at rest may take (it gains a factor δ/L per
 #: step: four for the test beam under gravity, δ/L = 1e-4).
 EQUILIBRIUM_ITERATIONS = 20
@@ -58,6 +59,17 @@ class HeldStatic(NamedTuple):
     def group_displacement(self, body: Body, group: str) -> np.ndarray:
         """The displacement of a group's mean position (3,)."""
         return self.displacement.reshape(-1, 3).T @ body.groups[group].position
+
+
+def free_rigid_motions(C: np.ndarray, rigid: np.ndarray) -> np.ndarray:
+    """The rigid motions the rows C (m × n) leave free, as velocities (n × f, combinations of
+    the six rigid velocities ``rigid``): the right singular vectors of C W whose singular
+    values are below ``FREE_MOTION`` of the largest (all six without rows)."""
+    if not len(C):
+        return rigid
+    _, s, Vt = np.linalg.svd(C @ rigid)
+    held = int(np.sum(s > FREE_MOTION * s[0])) if s[0] > 0.0 else 0
+    return rigid @ Vt[held:].T
 
 
 def held_response(stiffness: Any, C: np.ndarray, load: np.ndarray,
@@ -99,8 +111,7 @@ def static_equilibrium(body: Coordinates, constraints: Constraints, forces: Exte
         raise SceneError("[scene.initial] equilibrium = true: the body has no joints to rest "
                          "in, so it has no static equilibrium under gravity and loads")
     C = constraints.jacobian(constraints.directions_at(0.0))
-    held = np.linalg.svd(C @ body.rigid_velocities(q), compute_uv=False)
-    free = int(np.sum(held <= HELD_RIGID * held[0])) + max(0, 6 - len(held))
+    free = free_rigid_motions(C, body.rigid_velocities(q)).shape[1]
     if free:
         raise SceneError(f"[scene.initial] equilibrium = true: the joints leave {free} of the "
                          "body's six rigid motions free (an undriven revolute joint lets it "
