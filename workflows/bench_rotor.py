@@ -54,6 +54,14 @@ MODE_COUNTS = (5, 10, 20, 40)
 ATTACHMENT = ("none", "scene")
 
 
+def repeat_count(text: str) -> int:
+    """``--repeat``: how many runs of each basis the best is taken of, at least one."""
+    count = int(text)
+    if count < 1:
+        raise argparse.ArgumentTypeError(f"needs at least one run, not {count}")
+    return count
+
+
 def log(message: str) -> None:
     print(message, file=sys.stderr, flush=True)
 
@@ -163,7 +171,7 @@ def against_modes(static: dict, modes: dict) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("docs/bench_rotor"))
-    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--repeat", type=repeat_count, default=3)
     parser.add_argument("--modes", type=int, nargs="+", default=list(MODE_COUNTS))
     args = parser.parse_args()
     logging.disable(logging.INFO)

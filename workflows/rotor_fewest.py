@@ -34,7 +34,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 from auto_modes import errors  # noqa: E402
-from bench_rotor import case, log, table  # noqa: E402
+from bench_rotor import case, log, repeat_count, table  # noqa: E402
 
 #: The default study's mode count: the static shapes with attachment modes do not depend on
 #: it (``dynamics.static_shapes``), only the reduced model they are solved in does.
@@ -44,7 +44,7 @@ MODES = 10
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("docs/rotor_fewest"))
-    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--repeat", type=repeat_count, default=3)
     args = parser.parse_args()
     logging.disable(logging.INFO)
     from gcms_fenicsx import pipeline
