@@ -25,6 +25,7 @@ Pure Python; the checks raise GeometryError naming the key that sets the feature
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -42,6 +43,11 @@ if TYPE_CHECKING:
 KERNEL_RESOLUTION = 1e-5
 #: Features below this fraction of [mesh] size are refused, by element order (docstring).
 MIN_FEATURE_PER_SIZE = {1: 0.1, 2: 0.2}
+#: A feature this close below a limit (relative) is at the limit: the limit's own product
+#: (0.2 · 0.0125 = 0.0025000000000000005) and a feature's sums are off by a few ε.
+ROUND_OFF = 1e-12
+#: Significant digits of a suggested [mesh] size (rounded down, so it passes the check).
+SUGGESTED_DIGITS = 3
 
 
 @dataclass(frozen=True)
@@ -132,9 +138,15 @@ def key_value(geom: Geometry, key: str) -> Any:
 
 
 def _smallest(geom: Geometry, minimum: float) -> Feature | None:
-    """The smallest feature below ``minimum``, or None."""
-    small = [f for f in features(geom) if f.size < minimum]
+    """The smallest feature below ``minimum`` by more than ROUND_OFF, or None."""
+    small = [f for f in features(geom) if f.size < minimum * (1.0 - ROUND_OFF)]
     return min(small, key=lambda f: f.size, default=None)
+
+
+def rounded_down(value: float, digits: int = SUGGESTED_DIGITS) -> float:
+    """``value`` > 0 rounded down to ``digits`` significant digits: 0.012499 → 0.0124."""
+    unit = 10.0 ** (math.floor(math.log10(value)) - digits + 1)
+    return float(f"{math.floor(value / unit * (1.0 + ROUND_OFF)) * unit:.{digits}g}")
 
 
 def _refuse(geom: Geometry, feature: Feature, allowed: str) -> GeometryError:
@@ -160,4 +172,4 @@ def check_mesh_resolution(geom: Geometry, size: float, order: int) -> None:
         raise _refuse(geom, feature, f"must be >= {ratio:g} × [mesh] size {size:g} m = "
                       f"{ratio * size:.3g} m at order {order} (a thinner feature does not "
                       "mesh into valid cells): enlarge it or set a smaller [mesh] size "
-                      f"(<= {feature.size / ratio:.3g} m)")
+                      f"(<= {rounded_down(feature.size / ratio):g} m)")

@@ -8,6 +8,7 @@ the length unit its model is built in (``model_unit``). Pure Python.
 from __future__ import annotations
 
 import math
+from collections.abc import Collection
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -137,13 +138,36 @@ def geometry_keys(geom: Geometry) -> tuple[str, ...]:
     return ("throws", "crank_angles_deg", *CRANK_LENGTHS, "counterweights", "nose", "flange")
 
 
-def default_mesh_size(geom: Geometry) -> float:
+class DerivedLength(float):
+    """A length the user did not set, derived from other keys (``how``): a float whose repr
+    says so, so that a message naming it (``[mesh] size = …``) does not present it as given.
+    Its str, format, JSON and hash are the plain number's."""
+
+    how: str
+
+    def __new__(cls, value: float, how: str) -> DerivedLength:
+        length = super().__new__(cls, value)
+        length.how = how
+        return length
+
+    def __getnewargs__(self) -> tuple[float, str]:  # pickle and deepcopy keep ``how``
+        return float(self), self.how
+
+    def __repr__(self) -> str:
+        return f"{float(self):.3g} (not set: derived as {self.how})"
+
+    __str__ = float.__repr__
+
+
+def default_mesh_size(geom: Geometry) -> DerivedLength:
     """Beams: 2A/P of the section (≈ the wall thickness of a thin-walled section, half the
     side of a solid square): about one element through the thinnest wall.
     Crankshafts: 0.6 · web_thickness."""
     if isinstance(geom, BeamParams):
-        return geom.profile().feature_size
-    return CRANK_SIZE_PER_WEB_THICKNESS * geom.web_thickness
+        return DerivedLength(geom.profile().feature_size,
+                             f"2·area/perimeter of the {geom.section} section, the default")
+    return DerivedLength(CRANK_SIZE_PER_WEB_THICKNESS * geom.web_thickness,
+                         f"{CRANK_SIZE_PER_WEB_THICKNESS:g} × web_thickness, the default")
 
 
 def surface_groups(geom: Geometry) -> dict[str, int]:
@@ -151,18 +175,29 @@ def surface_groups(geom: Geometry) -> dict[str, int]:
     return groups.surface_tags(geom.throws if isinstance(geom, CrankshaftParams) else None)
 
 
-def crank_violation(lengths: dict[str, float]) -> tuple[str, str] | None:
+def crank_violation(lengths: dict[str, float],
+                    given: Collection[str] = CRANK_LENGTHS) -> tuple[str, str] | None:
     """(key, what is allowed) for crankshaft lengths that do not fit together, else None.
 
     The pin must sit off the main axis, and each web must cover the journal and the pin it
-    joins (otherwise its edge would coincide with or cut into their surfaces).
+    joins (otherwise its edge would coincide with or cut into their surfaces). The key blamed
+    is one the user set (``given``): a stroke too small for the default pin is the stroke's.
     """
-    if lengths["pin_diameter"] >= lengths["stroke"]:
-        return "pin_diameter", (f"must be < stroke = {lengths['stroke']:g}: a pin at radius "
-                                f"stroke/2 = {lengths['stroke'] / 2:g} would enclose the main "
-                                "axis")
-    needed = max(lengths["journal_diameter"], lengths["pin_diameter"])
-    if lengths["web_width"] <= needed:
-        return "web_width", (f"must be > max(journal_diameter, pin_diameter) = {needed:g}: the "
-                             "web must cover the journal and the pin it joins")
+    def shown(key: str) -> str:
+        return f"{key} = {lengths[key]:g}" + ("" if key in given else " (its default)")
+
+    stroke, pin = lengths["stroke"], lengths["pin_diameter"]
+    if pin >= stroke:
+        axis = (f"a pin of diameter {pin:g} at radius stroke/2 = {stroke / 2:g} would enclose "
+                "the main axis")
+        if "stroke" in given and "pin_diameter" not in given:
+            return "stroke", f"must be > {shown('pin_diameter')}: {axis}"
+        return "pin_diameter", f"must be < {shown('stroke')}: {axis}"
+    largest = max(("journal_diameter", "pin_diameter"), key=lambda key: lengths[key])
+    if lengths["web_width"] <= lengths[largest]:
+        cover = "the web must cover the journal and the pin it joins"
+        if largest in given and "web_width" not in given:
+            return largest, f"must be < {shown('web_width')}: {cover}"
+        return "web_width", (f"must be > max(journal_diameter, pin_diameter) = "
+                             f"{lengths[largest]:g}: {cover}")
     return None

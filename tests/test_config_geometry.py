@@ -117,7 +117,10 @@ def test_malformed_polygon_vertices(vertices, tmp_path):
 
 @pytest.mark.parametrize("geometry, key, constraint", [
     (crank(pin_diameter=0.09), "[geometry] pin_diameter", "must be < stroke = 0.086"),
-    (crank(stroke=0.04), "[geometry] pin_diameter", "must be < stroke = 0.04"),
+    # the key set is blamed, not the default it does not fit (issue 27)
+    (crank(stroke=0.04), "[geometry] stroke", "must be > pin_diameter = 0.048 (its default)"),
+    (crank(journal_diameter=0.08), "[geometry] journal_diameter",
+     "must be < web_width = 0.075 (its default)"),
     (crank(web_width=0.05), "[geometry] web_width", "max(journal_diameter, pin_diameter) = 0.055"),
     (crank(web_width=0.07, pin_diameter=0.07, stroke=0.1), "[geometry] web_width", "= 0.07"),
 ])

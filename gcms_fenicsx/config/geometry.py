@@ -77,7 +77,7 @@ def _parse_crankshaft(t: Table) -> CrankshaftParams:
     lengths = {key: t.positive(key, d[key]) for key in CRANK_LENGTHS}
     flags = {key: t.boolean(key, d[key]) for key in ("counterweights", "nose", "flange")}
     t.finish()
-    violation = crank_violation(lengths)
+    violation = crank_violation(lengths, [key for key in CRANK_LENGTHS if t.has(key)])
     if violation:
         key, allowed = violation
         raise t.error(key, lengths[key], allowed)
@@ -89,7 +89,8 @@ def _parse_crankshaft(t: Table) -> CrankshaftParams:
 def parse_mesh(raw: Mapping[str, Any] | None, geom: Geometry) -> MeshParams:
     """Validate ``[mesh]`` for the geometry ``geom``: ``size``, ``order``, ``refine``."""
     t = Table("mesh", raw)
-    size = t.positive("size", default_mesh_size(geom))
+    default = default_mesh_size(geom)   # kept as derived (its repr says so) when not set
+    size = t.positive("size") if t.has("size") else t.get("size", default)
     order = t.integer("order", 2, low=1, high=2)
     refine_raw = t.subtable("refine")
     t.finish()

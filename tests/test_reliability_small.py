@@ -1,0 +1,80 @@
+"""Issue 27, item 4: the small ones. One test each, every one failing on the code before it.
+
+- a feature exactly at the mesh-size limit is accepted (not refused by round-off), and a
+  refusal suggests a mesh size that is then accepted;
+- a crankshaft stroke too small for the (default) pin is blamed on ``stroke``, the key set;
+- a mesh size the user never set is called derived, and from what, when it is blamed;
+- a body at rest has a small relative energy drift (the scale has a floor), and the
+  absolute drift is reported;
+- an ``end_time`` whose steps would run for days is refused in one line before stepping;
+- a large field selection says what it will cost before it starts;
+- a read-only ``--out`` is reported as a read-only file system;
+- damaged results files leave no HDF5 handle open, however many are read.
+"""
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from gcms_fenicsx.config.geometry import parse_geometry, parse_mesh
+from gcms_fenicsx.config.table import ConfigError
+from geometry.features import MIN_FEATURE_PER_SIZE
+
+I_BEAM = {"kind": "beam", "section": "I", "length": 1.0, "width": 0.05, "height": 0.05,
+          "web_thickness": 0.003}
+
+
+def refusal(raw_geometry: dict, raw_mesh: dict | None = None) -> ConfigError:
+    """The one-line ConfigError that parsing ``[geometry]`` and ``[mesh]`` raises."""
+    with pytest.raises(ConfigError) as caught:
+        parse_mesh(raw_mesh, parse_geometry(raw_geometry))
+    assert "\n" not in str(caught.value)
+    return caught.value
+
+
+def test_a_feature_at_the_mesh_size_limit_is_accepted_and_a_refusal_suggests_a_size_that_is():
+    """Order 2 needs features >= 0.2 h: a flange of 0.0025 m at h = 0.0125 m is exactly at the
+    limit (0.2 · 0.0125 = 0.0025000000000000005 in binary) and must mesh; a flange 1 % thinner
+    is refused, and the [mesh] size its message suggests is then accepted and below h."""
+    size = 0.0125
+    flange = MIN_FEATURE_PER_SIZE[2] * size
+    assert flange == pytest.approx(0.0025, rel=1e-15)
+    geom = parse_geometry(dict(I_BEAM, flange_thickness=0.0025))
+    assert parse_mesh({"size": size}, geom).size == size
+    thin = dict(I_BEAM, flange_thickness=0.99 * 0.0025)
+    error = refusal(thin, {"size": size})
+    assert error.key == "[geometry] flange_thickness"
+    suggested = float(re.search(r"\[mesh\] size \(<= ([0-9.e+-]+) m\)", error.allowed).group(1))
+    assert suggested < size
+    assert parse_mesh({"size": suggested}, parse_geometry(thin)).size == suggested
+
+
+def test_a_stroke_too_small_for_the_default_pin_is_blamed_on_stroke():
+    """Only ``stroke`` is set (1e-9 m), the default pin (0.048 m) no longer fits the throw:
+    the message names stroke, its value and the default pin_diameter it must exceed; with
+    both set, the pin is blamed as before."""
+    error = refusal({"kind": "crankshaft", "stroke": 1e-9})
+    assert error.key == "[geometry] stroke" and error.value == 1e-9
+    assert "pin_diameter" in error.allowed and "0.048" in error.allowed
+    both = refusal({"kind": "crankshaft", "stroke": 0.04, "pin_diameter": 0.05})
+    assert both.key == "[geometry] pin_diameter" and both.value == 0.05
+
+
+def test_a_derived_mesh_size_is_called_derived_when_it_is_blamed():
+    """A tube of 1.2 µm wall, 0.1 m long, without [mesh] size: the default size (2A/P ≈ the
+    wall) would give ~1e10 cells, refused before meshing. The refusal names [mesh] size and
+    says it was not set but derived, and from what; a size the user set is shown as given."""
+    from gcms_fenicsx.fe.memory import check_meshing
+    from geometry.estimate import estimate_mesh
+
+    geom = parse_geometry({"kind": "beam", "section": "tube", "radius": 0.01,
+                           "thickness": 1.2e-6, "length": 0.1})
+    for raw, derived in ((None, True), ({"size": 1.2e-6}, False)):
+        mesh = parse_mesh(raw, geom)
+        with pytest.raises(ConfigError) as caught:
+            check_meshing(estimate_mesh(geom, mesh).cells, mesh.size, available=2.0**30)
+        text = str(caught.value)
+        assert text.startswith("[mesh] size = ") and "\n" not in text
+        assert ("not set" in text and "derived" in text and "2·area/perimeter" in text) == \
+            derived, text
