@@ -31,7 +31,7 @@ from gcms_fenicsx.dynamics.joints import Constraints
 from gcms_fenicsx.dynamics.loads import ExternalForces
 from gcms_fenicsx.dynamics.results import (BLOCK_BYTES, MULTIPLIERS, Series, Sink, block_rows,
                                            series_layout)
-from gcms_fenicsx.dynamics.scene import Outputs, Scene
+from gcms_fenicsx.dynamics.scene import Outputs, Scene, Solver
 
 
 @dataclass(frozen=True)
@@ -84,10 +84,26 @@ def record_plan(body: Body, constraints: Constraints, scene: Scene) -> RecordPla
                       nodes=len(body.nodes_m), block_rows=block_rows(layout, rows))
 
 
-class Extremes:
-    """The maxima over the recorded rows that the summary reports, kept as blocks pass."""
+#: The relative energy drift is measured against at least the kinetic energy of the whole
+#: body moving this many Newton tolerances (at the default ``[scene] solver`` tolerance, 1e-10
+#: of its size) in one step: a motion the solver does not resolve. In consistent units
+#: (m L²/h² is an energy in SI and in mm-t-s alike). A body at rest then reports its
+#: round-off (1e-19 J of 1e-19 J: the test beam) as a drift of 4e-8, not of 1.
+ENERGY_FLOOR_TOLERANCES = 10.0
 
-    def __init__(self) -> None:
+
+def energy_floor_j(body: Body, time_step_s: float) -> float:
+    """The least energy scale of the relative drift (``ENERGY_FLOOR_TOLERANCES``)."""
+    speed = ENERGY_FLOOR_TOLERANCES * Solver().tolerance * body.size_m / time_step_s
+    return 0.5 * body.total_mass_kg * speed ** 2
+
+
+class Extremes:
+    """The maxima over the recorded rows that the summary reports, kept as blocks pass;
+    ``floor_j`` is the least scale of the relative energy drift (:func:`energy_floor_j`)."""
+
+    def __init__(self, floor_j: float = 0.0) -> None:
+        self.floor_j = floor_j
         self.rows = 0
         self.iterations = 0
         self.energy = False
@@ -118,11 +134,18 @@ class Extremes:
     @property
     def energy_drift(self) -> float | None:
         """max |balance error| over the run / max (kinetic + elastic, |load work|, |constraint
-        work|): the relative energy drift; None without energies or with one row."""
+        work|, ``floor_j``): the relative energy drift; None without energies or with one
+        row. The floor keeps a body at rest, whose energies are all round-off, from reporting
+        its round-off divided by itself."""
         if not self.energy or self.rows < 2:
             return None
-        scale = max(self.motion, self.load_work, self.constraint_work)
+        scale = max(self.motion, self.load_work, self.constraint_work, self.floor_j)
         return self.balance / scale if scale > 0 else self.balance
+
+    @property
+    def energy_drift_j(self) -> float | None:
+        """max |balance error| over the run (J); None when :attr:`energy_drift` is."""
+        return None if self.energy_drift is None else self.balance
 
 
 class Recorder:
@@ -158,7 +181,7 @@ class Recorder:
         self.scalars: list[tuple] = []   # t, iterations, V, load, constraint, damping work
         self.filled = 0
         self.last_time: float | None = None
-        self.extremes = Extremes()
+        self.extremes = Extremes(energy_floor_j(body, time_step_s))
         self.energy = outputs.energy
         self.loads = bool(forces.loads)
         self.work = [0.0, 0.0, 0.0]     # load, constraint, damping

@@ -357,6 +357,7 @@ def _summary(body: Body | RotorBody, scene: Scene, run: Prepared, stepped: Stepp
         "basis": "rotor" if isinstance(body, RotorBody) else "full",
         "rotor_basis": rotor_summary(body) if isinstance(body, RotorBody) else None,
         "energy_drift_rel": extremes.energy_drift,
+        "energy_drift_abs_j": extremes.energy_drift_j,
         "linear_momentum_change": extremes.momentum_change,
         "initial_kinetic_energy_j": run.kinetic_kept_j,
         "initial_kinetic_energy_removed_by_joints_j": run.kinetic_given_j - run.kinetic_kept_j,
