@@ -35,11 +35,20 @@ def memory_capacity() -> Capacity:
     return Capacity(int(available_memory_bytes()), "of available memory")
 
 
+#: The most steps a run may take: 30 h of stepping at the fastest rate measured
+#: (``FASTEST_STEPS_PER_S``, the crankshaft's rotor basis on its static shapes, README). A
+#: run past it (``end_time = 1e12`` at 1 ms with sparse outputs fits any disk, and would
+#: report an ETA of millions of days) is refused before it starts.
+MAX_STEPS = 10**9
+FASTEST_STEPS_PER_S = 9139.0
+
+
 def check_capacity(plan: RecordPlan, capacity: Capacity, scene: Scene) -> None:
     """SceneError, in one line with the estimate and the limit, if the results of ``plan``
     exceed ``capacity``; it names ``[scene.outputs] field_times`` when the field snapshots are
-    most of it, else ``[scene] end_time``."""
+    most of it, else ``[scene] end_time``. Then :func:`check_steps`."""
     if plan.total_bytes <= capacity.bytes:
+        check_steps(plan, scene)
         return
     snapshots = (f" and {len(plan.snapshot_steps)} field snapshots of {plan.nodes} nodes "
                  f"({format_bytes(plan.snapshot_bytes)})" if plan.snapshot_steps else "")
@@ -53,6 +62,20 @@ def check_capacity(plan: RecordPlan, capacity: Capacity, scene: Scene) -> None:
     raise SceneError(f"[scene] end_time = {scene.end_time_s:g}: {estimate}; shorten end_time, "
                      f"record fewer rows ([scene.outputs] every = {scene.outputs.every} now) or "
                      "fewer series")
+
+
+def check_steps(plan: RecordPlan, scene: Scene) -> None:
+    """SceneError naming ``[scene] end_time``, in one line, if the run takes more than
+    MAX_STEPS steps."""
+    if plan.steps <= MAX_STEPS:
+        return
+    hours = MAX_STEPS / FASTEST_STEPS_PER_S / 3600
+    raise SceneError(f"[scene] end_time = {scene.end_time_s:g}: {plan.steps:.3g} steps of "
+                     f"{scene.time_step_s:g} s, more than the {MAX_STEPS:.3g} a run may take "
+                     f"({hours:.0f} h at {FASTEST_STEPS_PER_S:,.0f} steps/s, the fastest rate "
+                     f"measured; this one would take "
+                     f"{format_duration(plan.steps / FASTEST_STEPS_PER_S)}): shorten end_time "
+                     "or lengthen time_step")
 
 
 def format_bytes(n: float) -> str:
