@@ -14,6 +14,7 @@
 from __future__ import annotations
 
 import re
+import subprocess
 
 import pytest
 
@@ -78,3 +79,35 @@ def test_a_derived_mesh_size_is_called_derived_when_it_is_blamed():
         assert text.startswith("[mesh] size = ") and "\n" not in text
         assert ("not set" in text and "derived" in text and "2·area/perimeter" in text) == \
             derived, text
+
+
+@pytest.fixture
+def read_only_folder(tmp_path):
+    """A folder holding ``out/`` on a tmpfs remounted read-only (needs root: skipped
+    otherwise); unmounted afterwards."""
+    mount = tmp_path / "ro"
+    mount.mkdir()
+    made = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1m", "tmpfs", str(mount)],
+                          capture_output=True, text=True)
+    if made.returncode:
+        pytest.skip(f"cannot mount a tmpfs here: {made.stderr.strip()}")
+    try:
+        (mount / "out").mkdir()
+        subprocess.run(["mount", "-o", "remount,ro", str(mount)], check=True)
+        yield mount
+    finally:
+        subprocess.run(["umount", str(mount)], check=True)
+
+
+def test_a_read_only_out_is_reported_as_a_read_only_file_system(read_only_folder):
+    """``--out`` on a read-only file system, existing or to be created there: one ConfigError
+    naming --out and the read-only file system, not "Permission denied"."""
+    from gcms_fenicsx.files.outputs import staged_output
+
+    for out in (read_only_folder / "out", read_only_folder / "new"):
+        with pytest.raises(ConfigError) as caught:
+            with staged_output(out):
+                pass
+        assert caught.value.key == "--out" and caught.value.value == str(out)
+        assert "read-only file system" in caught.value.allowed.lower(), caught.value
+        assert "Permission denied" not in caught.value.allowed

@@ -85,8 +85,16 @@ def _staging_home(out_dir: Path) -> Path:
         if candidate.exists() and candidate != out_dir:
             break
     if out_dir.is_dir() and not os.access(out_dir, os.W_OK):
-        raise ConfigError("--out", str(out_dir), "cannot be written: Permission denied")
+        raise ConfigError("--out", str(out_dir), f"cannot be written: {_not_writable(out_dir)}")
     return next(c for c in out_dir.parents if c.exists()) if out_dir.parents else Path(".")
+
+
+def _not_writable(folder: Path) -> str:
+    """Why the folder ``folder``, which ``os.access`` says cannot be written, cannot: its file
+    system is mounted read-only (as root too: EROFS), or its permissions."""
+    if os.statvfs(folder).f_flag & os.ST_RDONLY:
+        return "Read-only file system (mounted read-only)"
+    return "Permission denied"
 
 
 def _stale_staging(folder: Path) -> Iterable[Path]:
