@@ -6,9 +6,13 @@ An eigenvector of (Kr, Mr) is defined up to its sign, and within a repeated eige
 a rotation of the cluster's basis: the eigen-solver of two near-identical bodies returns
 different bases of a square beam's bending pair, so "mode 1" would start the one bending
 along y and the other at 150° from it. Here the shape is made a function of the cluster's
-subspace and of the requested direction only.
+subspace and of the requested direction only (without one, of the global axis the cluster
+reaches farthest along), and :class:`ModeStart` says which rule chose it, along what, and
+whether the cluster is near the split at which its grouping changes.
 """
 from __future__ import annotations
+
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -19,7 +23,8 @@ from gcms_fenicsx.dynamics.joints import Constraints
 from gcms_fenicsx.dynamics.loads import ExternalForces
 from gcms_fenicsx.dynamics.scene import Initial, SceneError
 from gcms_fenicsx.dynamics.state import Elastic, State, StepInfo
-from gcms_fenicsx.reduction.spectrum import cluster_of
+from gcms_fenicsx.reduction.spectrum import (CLUSTER_SPLIT, NEAR_SPLIT_FACTOR, cluster_of,
+                                             cluster_splits, near_split_edge)
 
 #: A direction along which the cluster's largest reach is below this fraction of its largest
 #: nodal displacement is one the mode does not move along: refused.
@@ -32,6 +37,7 @@ TIE = 1e-2
 #: the mesh's coordinates does not decide).
 POSITION_RESOLUTION = 1e-6
 RIGID_MODES = 6
+AXES = "xyz"
 
 
 def mode_cluster(lam: np.ndarray, index: int) -> range:
@@ -87,24 +93,104 @@ def signed_shape(body: Body, shape: np.ndarray) -> np.ndarray:
     return shape if displacement[first_of_largest_component(displacement)] >= 0.0 else -shape
 
 
-def initial_coordinates(body: Body, initial: Initial) -> np.ndarray:
+def farthest_axis(body: Body, shapes: np.ndarray) -> int:
+    """The global axis a (0, 1, 2: x, y, z) the cluster ``shapes`` (n × k, Mr-orthonormal)
+    reaches farthest along: the largest max_i ‖D_iᵀ e_a‖, the farthest any node moves along e_a
+    in any unit combination (scene docstring); within ``TIE`` of it the lowest index
+    (:func:`first_of_largest_component`). A function of the cluster's subspace only: another
+    orthonormal basis D_i R has the same row norms."""
+    D = nodal_displacements(body, shapes)
+    return first_of_largest_component(np.linalg.norm(D, axis=2).max(axis=0))
+
+
+@dataclass(frozen=True)
+class ModeStart:
+    """How ``[scene.initial] mode`` was shaped (rule in ``scene``'s docstring): the elastic
+    modes (1-based) of its cluster, the cluster's largest relative split inside and its
+    smallest to an elastic eigenvalue outside (None without one; ``spectrum.cluster_splits``),
+    the rule that fixed the shape — "direction" (given), "farthest axis" (a cluster of several
+    modes without a direction) or "sign" (a single mode without one) — and the unit
+    direction it was oriented along (None under "sign")."""
+
+    mode: int
+    cluster: tuple[int, ...]
+    split: float
+    gap: float | None
+    rule: str
+    direction: tuple[float, ...] | None
+
+    def line(self) -> str:
+        """The progress line: which direction the start took, and by which rule."""
+        modes = f"mode {self.mode}" + (f" (cluster of modes {', '.join(map(str, self.cluster))})"
+                                       if len(self.cluster) > 1 else "")
+        if self.rule == "sign":
+            return f"initial state: {modes}, its sign by the largest nodal displacement"
+        along = np.round(self.direction, 4).tolist()
+        if self.rule == "direction":
+            return f"initial state: {modes} along the given direction {along}"
+        axis = AXES[int(np.argmax(self.direction))]
+        return (f"initial state: {modes} along {axis} {along}, the global axis the cluster "
+                "reaches farthest along (no direction given)")
+
+    def warning(self) -> str | None:
+        """Why a small change of the body could change the start: the cluster's splits within
+        NEAR_SPLIT_FACTOR of CLUSTER_SPLIT (``spectrum.near_split_edge``); else None."""
+        if not near_split_edge(self.split, self.gap):
+            return None
+        gap = "none" if self.gap is None else f"{self.gap:.2g}"
+        return (f"[scene.initial] mode {self.mode}: its cluster of modes "
+                f"{', '.join(map(str, self.cluster))} has relative splits {self.split:.2g} "
+                f"inside and {gap} to the nearest mode outside, within a factor of "
+                f"{NEAR_SPLIT_FACTOR:g} of the {CLUSTER_SPLIT:g} that groups modes: a small "
+                "change of the body can change which modes are grouped, and so the start")
+
+    def summary(self) -> dict:
+        """``summary.json``'s ``initial_mode``."""
+        return asdict(self)
+
+
+def start_shape(body: Body, initial: Initial, lam: np.ndarray, psi: np.ndarray,
+                index: int) -> tuple[np.ndarray, ModeStart]:
+    """The unscaled shape of elastic eigenvector ``index`` (of ``lam``, ``psi``) by the scene
+    docstring's rule: along ``initial.direction``; without it, a cluster along its
+    :func:`farthest_axis`, a single mode with :func:`signed_shape`'s sign."""
+    cluster = mode_cluster(lam, index)
+    shapes = psi[:, cluster.start:cluster.stop]
+    if initial.direction is not None:
+        rule, direction = "direction", np.asarray(initial.direction, float)
+    elif len(cluster) > 1:
+        rule, direction = "farthest axis", np.eye(3)[farthest_axis(body, shapes)]
+    else:
+        rule, direction = "sign", None
+    shape = (signed_shape(body, psi[:, index]) if direction is None
+             else oriented_shape(body, shapes, direction))
+    split, gap = cluster_splits(lam, cluster, RIGID_MODES)
+    start = ModeStart(mode=index - RIGID_MODES + 1,
+                      cluster=tuple(k - RIGID_MODES + 1 for k in cluster), split=split,
+                      gap=gap, rule=rule,
+                      direction=None if direction is None else tuple(direction.tolist()))
+    return shape, start
+
+
+def initial_start(body: Body, initial: Initial) -> tuple[np.ndarray, ModeStart | None]:
     """q0, plus the requested elastic mode (oriented as the scene docstring says) scaled to a
-    largest nodal displacement of ``amplitude``."""
+    largest nodal displacement of ``amplitude``; and how it was oriented (None without a
+    mode)."""
     if initial.mode is None:
-        return body.q0.copy()
+        return body.q0.copy(), None
     lam, psi = elastic_modes(body)
     index = RIGID_MODES - 1 + initial.mode
     if index >= len(lam):
         raise SceneError(f"[scene.initial] mode = {initial.mode}: the reduced model has "
                          f"{len(lam) - RIGID_MODES} elastic modes")
-    if initial.direction is None:
-        shape = signed_shape(body, psi[:, index])
-    else:
-        cluster = mode_cluster(lam, index)
-        shape = oriented_shape(body, psi[:, cluster.start:cluster.stop],
-                               np.asarray(initial.direction, float))
+    shape, start = start_shape(body, initial, lam, psi, index)
     largest = float(np.max(np.linalg.norm(body.displacement(body.q0 + shape), axis=1)))
-    return body.q0 + initial.amplitude_m / largest * shape
+    return body.q0 + initial.amplitude_m / largest * shape, start
+
+
+def initial_coordinates(body: Body, initial: Initial) -> np.ndarray:
+    """The coordinates of :func:`initial_start`."""
+    return initial_start(body, initial)[0]
 
 
 def consistent_velocity(body: Body, constraints: Constraints, mass_solve: Solve, t: float,

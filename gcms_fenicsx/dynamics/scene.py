@@ -49,9 +49,18 @@ solver returns any basis of the pair. So:
   cluster's k eigenvectors at node i, d the unit direction), so the displacement there, D_i a,
   has the largest component along d any node and any unit combination reach, and it is
   positive, whatever basis the solver returned for the cluster.
-- without it, the sign of the eigenvector is fixed so that the largest nodal displacement's
-  largest-magnitude component is positive (and within a repeated pair the solver's basis
-  stands: give a direction when it matters).
+- without it, a cluster of two or more modes is oriented as above along the global axis e_a
+  (x, y or z) it reaches farthest along — the largest max_i ‖D_iᵀ e_a‖, which no basis of the
+  cluster changes; axes within 1 % of it tie and the lowest index wins (a square beam's
+  bending pair: y) — and a single mode's sign is fixed so that its largest nodal
+  displacement's largest-magnitude component is positive.
+
+The run prints the rule and the direction taken (``summary.json``: ``initial_mode``), and
+warns when the mode's cluster is within a factor of ten of ``CLUSTER_SPLIT`` — a split inside
+it above 1e-4, or a gap to the nearest elastic eigenvalue outside it below 1e-2
+(``spectrum.near_split_edge``): a small change of the body can then change which modes are
+grouped, and so the start (a square beam widened by 1e-3 splits its pair by 2e-3: mode 1
+starts alone, bending along z, not along y).
 
 Ties: nodal values within 1 % (``initial.TIE``) of the largest count as equal (a symmetric
 body's mirror nodes differ only by its mesh) and the node first in (x, y, z) order is taken

@@ -31,8 +31,8 @@ from gcms_fenicsx.dynamics.damping import RayleighDamping
 from gcms_fenicsx.dynamics.errors import IntegrationError
 from gcms_fenicsx.dynamics.factorization import (Factorize, dense_factorization,
                                                  mass_factorization)
-from gcms_fenicsx.dynamics.initial import (consistent_state, consistent_velocity,
-                                           initial_coordinates)
+from gcms_fenicsx.dynamics.initial import (ModeStart, consistent_state, consistent_velocity,
+                                           initial_coordinates, initial_start)
 from gcms_fenicsx.dynamics.integrator import GeneralizedAlpha
 from gcms_fenicsx.dynamics.state import Elastic, State, StepInfo
 from gcms_fenicsx.dynamics.joints import Constraints, build_constraints
@@ -163,6 +163,12 @@ class Prepared:
     info: StepInfo
     kinetic_given_j: float   # of the initial velocity asked for
     kinetic_kept_j: float    # of the one the joints allow
+    start: ModeStart | None  # how the initial mode was shaped (None without one)
+
+    def warnings(self, scene: Scene) -> list[str]:
+        """The scene's warnings and the initial mode's (``ModeStart.warning``)."""
+        warning = self.start.warning() if self.start is not None else None
+        return scene.warnings() + ([warning] if warning else [])
 
 
 @dataclass(frozen=True)
@@ -227,7 +233,12 @@ def prepare_run(body: Body | RotorBody, scene: Scene, capacity: Capacity,
     for warning in scene.warnings():
         progress(f"warning: {warning}")
     full = _full(body)
-    q_full = initial_coordinates(full, scene.initial)
+    q_full, start = initial_start(full, scene.initial)
+    if start is not None:
+        progress(start.line())
+        warning = start.warning()
+        if warning:
+            progress(f"warning: {warning}")
     q = body.project(q_full)[0] if isinstance(body, RotorBody) else q_full
     if elastic is not None and scene.initial.mode is not None:
         warning = nonlinear_start(body, elastic, q, scene)
@@ -273,7 +284,7 @@ def prepare_run(body: Body | RotorBody, scene: Scene, capacity: Capacity,
     return Prepared(constraints=constraints, plan=plan, forces=forces, integrator=integrator,
                     state=state, info=info,
                     kinetic_given_j=kinetic_given,
-                    kinetic_kept_j=0.5 * float(v @ (body.mass @ v)))
+                    kinetic_kept_j=0.5 * float(v @ (body.mass @ v)), start=start)
 
 
 #: An initial mode shape whose energy under another elastic law differs from the linear one
@@ -362,7 +373,8 @@ def _summary(body: Body | RotorBody, scene: Scene, run: Prepared, stepped: Stepp
         "initial_kinetic_energy_j": run.kinetic_kept_j,
         "initial_kinetic_energy_removed_by_joints_j": run.kinetic_given_j - run.kinetic_kept_j,
         "model_hash": model_hash,
-        "warnings": scene.warnings(),
+        "warnings": run.warnings(scene),
+        "initial_mode": run.start.summary() if run.start is not None else None,
     })
 
 

@@ -23,6 +23,35 @@ def chained(lower: float, upper: float) -> bool:
     return upper - lower <= CLUSTER_SPLIT * abs(upper)
 
 
+#: A cluster whose split inside comes above CLUSTER_SPLIT / NEAR_SPLIT_FACTOR, or whose gap to a
+#: neighbour outside it comes below CLUSTER_SPLIT × NEAR_SPLIT_FACTOR, is near the rule's edge:
+#: a small change of the body can change which eigenvalues it groups.
+NEAR_SPLIT_FACTOR = 10.0
+
+
+def relative_split(lam: np.ndarray, k: int) -> float:
+    """(λ_{k+1} − λ_k)/|λ_{k+1}|: the split :func:`chained` compares with CLUSTER_SPLIT."""
+    return float((lam[k + 1] - lam[k]) / abs(lam[k + 1]))
+
+
+def cluster_splits(lam: np.ndarray, group: range, first: int = 0) -> tuple[float, float | None]:
+    """The largest :func:`relative_split` between neighbours inside ``group`` (0 for one
+    eigenvalue) and the smallest between it and its neighbours outside it, not below
+    ``first`` (None if it has none)."""
+    inside = max((relative_split(lam, k) for k in range(group.start, group.stop - 1)),
+                 default=0.0)
+    outside = [relative_split(lam, k) for k in (group.start - 1, group.stop - 1)
+               if k >= first and k + 1 < len(lam)]
+    return inside, min(outside, default=None)
+
+
+def near_split_edge(inside: float, outside: float | None) -> bool:
+    """Whether a cluster's splits (:func:`cluster_splits`) are within NEAR_SPLIT_FACTOR of
+    CLUSTER_SPLIT: the grouping could change with a small change of the body."""
+    return (inside > CLUSTER_SPLIT / NEAR_SPLIT_FACTOR
+            or (outside is not None and outside < CLUSTER_SPLIT * NEAR_SPLIT_FACTOR))
+
+
 def cluster_of(lam: np.ndarray, index: int, first: int = 0) -> range:
     """The indices of the eigenvalues chained to ``lam[index]`` (``lam`` ascending), not
     below ``first``."""
