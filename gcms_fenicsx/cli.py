@@ -61,7 +61,7 @@ def _run(args: argparse.Namespace) -> int:
     from mpi4py import MPI
 
     from gcms_fenicsx import commands  # light: the FE verbs import dolfinx when they run
-    from gcms_fenicsx.commands import SimulationIncomplete
+    from gcms_fenicsx.commands import PicturesInterrupted, SimulationIncomplete
     from gcms_fenicsx.dynamics.scene import SceneError
     from gcms_fenicsx.files.reduced_model import ReducedModelError
     from gcms_fenicsx.runtime.errors import ComputationFailed
@@ -72,6 +72,12 @@ def _run(args: argparse.Namespace) -> int:
     try:
         with interruptible():
             summary = getattr(commands, args.command)(args.config, args.out, args.fresh)
+    except PicturesInterrupted as exc:
+        if comm.rank == 0:
+            print(f"gcms {args.command}: interrupted ({signal.Signals(exc.signum).name}) while "
+                  f"drawing the pictures; the results are in {args.out}/ (results.h5, "
+                  "summary.json), a picture not finished is not", file=sys.stderr)
+        return exc.exit_status
     except (Interrupted, KeyboardInterrupt) as exc:
         signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT
         if comm.rank == 0:

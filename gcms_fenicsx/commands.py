@@ -24,10 +24,11 @@ from gcms_fenicsx.config.basis import scene_patterns
 from gcms_fenicsx.config.study import StudyConfig, load_config
 from gcms_fenicsx.config.table import ConfigError
 from gcms_fenicsx.files.names import MESH_FILES, MODES_FILES, REDUCE_FILES, SIMULATION_FILES
-from gcms_fenicsx.files.outputs import on_rank0, staged_output, write_json
+from gcms_fenicsx.files.outputs import check_out, on_rank0, staged_output, write_json
 from gcms_fenicsx.files.plots import plot_results
 from gcms_fenicsx.files.reduced_model import ReducedModel, read_reduced
 from gcms_fenicsx.runtime.errors import ComputationFailed
+from gcms_fenicsx.runtime.interrupts import Interrupted
 from gcms_fenicsx.runtime.progress import Progress, progress_printer, quiet
 
 #: What ``gcms simulate`` and ``gcms run`` own in --out (``staged_output``).
@@ -36,6 +37,11 @@ SCENE_OWNS = (*REDUCE_FILES, *SIMULATION_FILES)
 
 class SimulationIncomplete(ComputationFailed):
     """The simulation stopped before end_time; its results up to there are written."""
+
+
+class PicturesInterrupted(Interrupted):
+    """SIGINT or SIGTERM while the pictures were drawn: the run's results were published
+    before, so ``--out`` holds them; a picture not finished is not there."""
 
 
 def _world() -> Any:
@@ -53,6 +59,7 @@ def _verb(config: Path | None, out: Path, fresh: bool, upto: str, owns: tuple[st
                                   "initial motion and time span to simulate")
     comm = _world()
     progress = progress_printer(comm.rank)
+    on_rank0(comm, check_out, out)
     plan = comm.bcast(stage_cache.plan(cfg, out, upto, fresh, progress) if comm.rank == 0
                       else None, root=0)
     owned = (*stage_cache.owned_files(plan, owns), stage_cache.MANIFEST)
@@ -60,10 +67,12 @@ def _verb(config: Path | None, out: Path, fresh: bool, upto: str, owns: tuple[st
     with staged_output(out, comm, owned) as folder:
         built = stage_files.build(cfg, folder, progress, comm, plan, upto)
         if comm.rank == 0:
-            stage_cache.write_manifest(out, folder, owned)
+            stage_cache.write_manifest(out, folder, owned, plan)
         if scene != "none" and cfg.scene is not None:
             summary = on_rank0(comm, scene_files, cfg, built.model, folder, progress,
                                built.stages)
+    if summary is not None and comm.rank == 0:
+        summary = pictures(out, summary, progress)
     return built.texts, summary
 
 
@@ -91,9 +100,9 @@ def reduce(config: Path | None, out: Path, fresh: bool = False) -> str:
 # -- gcms simulate ------------------------------------------------------------------------
 
 def scene_files(cfg: StudyConfig, model: ReducedModel, folder: Path, progress: Progress,
-                stages: dict | None = None, plots: bool = True) -> dict:
+                stages: dict | None = None) -> dict:
     """The simulation stage into folder/results.h5, then summary.json (with the ``stages``
-    block) and (``plots``) the pictures drawn from results.h5; the summary."""
+    block; ``plots`` empty until :func:`pictures` draws them); the summary."""
     if cfg.scene is None:
         raise ConfigError.missing("[scene]", "required to simulate: the joints, loads, "
                                   "initial motion and time span")
@@ -106,12 +115,25 @@ def scene_files(cfg: StudyConfig, model: ReducedModel, folder: Path, progress: P
     summary = pipeline.simulation_stage(model, cfg.scene, results, progress, cfg.basis.kind,
                                         cfg.modes.attachment or (),
                                         scene_patterns(cfg.basis, cfg.scene))
-    if plots:
-        summary["plots"] = plot_results(results, folder)
+    summary["plots"] = []
     if stages is not None:
         stage_files.record_stage(stages, "simulation", "computed", time.perf_counter() - t0)
         summary["stages"] = stages
     write_json(folder / "summary.json", summary)
+    return summary
+
+
+def pictures(out: Path, summary: dict, progress: Progress) -> dict:
+    """The pictures of ``out``/results.h5, drawn into ``out`` after the run's results and
+    summary.json were published there, and summary.json with their names in ``plots``; a
+    picture that cannot be drawn is a warning line (``files.plots``), an interrupt meanwhile
+    :class:`PicturesInterrupted`."""
+    try:
+        drawn = plot_results(out / "results.h5", out, progress)
+        summary = dict(summary, plots=drawn)
+        write_json(out / "summary.json", summary)
+    except Interrupted as exc:
+        raise PicturesInterrupted(exc.signum) from exc
     return summary
 
 
@@ -163,7 +185,7 @@ def simulate_model(reduced: Path, config: Path, out: Path, progress: Progress = 
     if other:
         progress(f"note: {reduced} {other}; it is simulated as it is")
     with staged_output(out, owns=SIMULATION_FILES) as folder:
-        summary = scene_files(cfg, model, folder, progress, plots=False)
+        summary = scene_files(cfg, model, folder, progress)
     return finished([], summary)
 
 

@@ -167,3 +167,91 @@ def test_a_folder_where_a_result_file_goes_is_refused_and_kept(beam6_reduced, tm
     run = gcms("simulate", str(study(tmp_path)), "--out", str(out))
     assert_one_line_error(run, "--out", "'results.h5'", "folder")
     assert tree() == before and before["results.h5/mine.txt"] == b"kept\n"
+
+
+#: Joint sets on one group in which a later joint keeps a moment row but loses every force
+#: row to the earlier ones (README: several joints on one group are allowed; the redundant
+#: rows are dropped), each as (type, axis) on end_x0.
+PARTLY_REDUNDANT = {
+    "fixed+revolute": [("fixed", None), ("revolute", (0, 1, 0))],
+    "revolute_y+revolute_z": [("revolute", (0, 1, 0)), ("revolute", (0, 0, 1))],
+    "revolute+revolute+fixed": [("revolute", (0, 1, 0)), ("revolute", (0, 0, 1)),
+                                ("fixed", None)],
+    "spherical+revolute+spherical+fixed": [("spherical", None), ("revolute", (0, 0, 1)),
+                                           ("spherical", None), ("fixed", None)],
+}
+
+
+def joints_scene(joints: list[tuple[str, tuple | None]]) -> str:
+    """SCENE with its clamp replaced by ``joints`` on end_x0, named a, b, c, …"""
+    tables = "".join(
+        f'\n[[scene.joints]]\ntype = "{kind}"\ngroup = "end_x0"\nname = "{chr(97 + i)}"\n'
+        + (f"axis = {list(axis)}\n" if axis else "") for i, (kind, axis) in enumerate(joints))
+    head, _, rest = SCENE.partition("[[scene.joints]]")
+    return head + tables + "\n[basis]" + rest.partition("[basis]")[2]
+
+
+@pytest.mark.parametrize("joints", list(PARTLY_REDUNDANT))
+def test_partly_redundant_joints_finish_with_their_pictures(beam6_reduced, tmp_path, joints):
+    """Each partly redundant joint set runs to the end, exit 0, with joints.png drawn: a
+    joint left with moment rows only is in the moment panel, not in the force panel (before,
+    revolute(y) + revolute(z) raised ResultsError after the whole run and left nothing)."""
+    out = output_folder(tmp_path, beam6_reduced)
+    run = gcms("simulate", str(study(tmp_path, joints_scene(PARTLY_REDUNDANT[joints]))),
+               "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    assert "warning" not in run.stderr.lower(), run.stderr
+    summary = strict_json(out / "summary.json")
+    assert summary["complete"] and "joints.png" in summary["plots"]
+    assert (out / "joints.png").stat().st_size > 0
+
+
+def _failing_picture(monkeypatch, name: str, error: BaseException) -> None:
+    """``files.plots`` with the picture ``name`` raising ``error`` when drawn."""
+    from gcms_fenicsx.files import plots
+
+    def fail(traj, path):
+        raise error
+    monkeypatch.setattr(plots, "PICTURES", tuple(
+        (n, fail if n == name else draw, shown) for n, draw, shown in plots.PICTURES))
+
+
+def test_a_picture_that_cannot_be_drawn_is_a_warning(beam6_reduced, tmp_path, monkeypatch,
+                                                     capsys):
+    """energy.png forced to fail: the run ends with exit 0, results.h5 and summary.json
+    published, the other pictures drawn, energy.png absent (no temporary file left) and one
+    warning line naming it; summary.json lists the pictures drawn."""
+    from gcms_fenicsx import cli
+
+    out = output_folder(tmp_path, beam6_reduced)
+    _failing_picture(monkeypatch, "energy.png", RuntimeError("no font"))
+    status = cli.main(["simulate", str(study(tmp_path)), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert status == 0, err
+    warnings = [line for line in err.splitlines() if "warning" in line]
+    assert len(warnings) == 1 and "energy.png" in warnings[0] and "no font" in warnings[0]
+    files = set(contents(out))
+    assert {"results.h5", "summary.json", "trajectory.png", "joints.png"} <= files
+    assert "energy.png" not in files and not any(n.endswith(".tmp") for n in files), files
+    assert strict_json(out / "summary.json")["plots"] == ["trajectory.png", "joints.png"]
+
+
+def test_an_interrupt_while_drawing_keeps_the_published_results(beam6_reduced, tmp_path,
+                                                                monkeypatch, capsys):
+    """SIGINT while joints.png is drawn (after results.h5 and summary.json are published):
+    exit 130 and one line saying the results are in --out; the run is not lost, the
+    unfinished picture is not there."""
+    import signal
+
+    from gcms_fenicsx import cli
+    from gcms_fenicsx.runtime.interrupts import Interrupted
+
+    out = output_folder(tmp_path, beam6_reduced)
+    _failing_picture(monkeypatch, "joints.png", Interrupted(signal.SIGINT))
+    status = cli.main(["simulate", str(study(tmp_path)), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert status == 130, err
+    assert "while drawing the pictures; the results are in" in err.splitlines()[-1], err
+    files = set(contents(out))
+    assert {"results.h5", "summary.json"} <= files and "joints.png" not in files
+    assert strict_json(out / "summary.json")["complete"] is True

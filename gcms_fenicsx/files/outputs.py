@@ -89,6 +89,13 @@ def _staging_home(out_dir: Path) -> Path:
     return next(c for c in out_dir.parents if c.exists()) if out_dir.parents else Path(".")
 
 
+def check_out(out_dir: Path) -> None:
+    """ConfigError if ``out_dir`` is a file, lies below a file or exists but cannot be
+    written: what :func:`staged_output` refuses, said before a command plans or reads
+    anything in it."""
+    _staging_home(Path(out_dir))
+
+
 def _not_writable(folder: Path) -> str:
     """Why the folder ``folder``, which ``os.access`` says cannot be written, cannot: its file
     system is mounted read-only (as root too: EROFS), or its permissions."""

@@ -5,6 +5,10 @@ group, the energies and the multipliers — and of a long run only every k-th re
 most ``PLOT_ROWS`` of them (a figure is about a thousand pixels wide; the title says k), so
 drawing them takes bounded memory whatever the length of the run.
 
+Each picture is drawn to a temporary name and renamed (``files.outputs.atomic_file``), and one
+that cannot be drawn is a warning naming it, never an error: the pictures come after the
+run's results are published (``commands``), and a figure must not cost the run.
+
 Matplotlib (Agg) is imported when a picture is drawn, not before.
 """
 from __future__ import annotations
@@ -17,6 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from gcms_fenicsx.dynamics.results import MULTIPLIERS, joint_force, open_results
+from gcms_fenicsx.files.outputs import atomic_file
+from gcms_fenicsx.runtime.progress import Progress, quiet
 
 #: At most this many rows of each series are read for the pictures.
 PLOT_ROWS = 20_000
@@ -70,9 +76,12 @@ def _pyplot():
 
 
 def _save(plt, fig, path: Path) -> None:
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    """Write ``fig`` as PNG to ``path`` (a temporary name: the format is not read from it)."""
+    try:
+        fig.tight_layout()
+        fig.savefig(path, dpi=110, format="png")
+    finally:
+        plt.close(fig)
 
 
 def plot_trajectory(traj: PlotData, path: Path) -> None:
@@ -127,10 +136,12 @@ def plot_energy(traj: PlotData, path: Path) -> None:
 
 
 def plot_joints(traj: PlotData, path: Path) -> None:
-    """Every joint's force on the body (magnitude) and, when a joint constrains a rotation,
-    its moments, against time: a scene of spherical joints only gets no moment panel."""
+    """The force on the body (magnitude) of every joint that keeps force rows and, when a
+    joint constrains a rotation, its moments, against time: a scene of spherical joints only
+    gets no moment panel, and a joint whose force rows all went to an earlier joint on its
+    group (a revolute after a fixed one) only its moments."""
     plt = _pyplot()
-    joints = list(dict.fromkeys(r["joint"] for r in traj.rows))
+    joints = list(dict.fromkeys(r["joint"] for r in traj.rows if r["kind"] == "force"))
     moments = [(i, r) for i, r in enumerate(traj.rows) if r["unit"] == "N*m"]
     fig, axes = plt.subplots(2 if moments else 1, 1, figsize=(9, 6.5 if moments else 3.8),
                              sharex=True, squeeze=False)
@@ -154,18 +165,36 @@ def plot_joints(traj: PlotData, path: Path) -> None:
     _save(plt, fig, path)
 
 
-def plot_results(results: Path, folder: Path) -> list[str]:
+#: The pictures in the order they are drawn: name, drawing function, and whether the run's
+#: data have what it shows.
+PICTURES = (
+    ("trajectory.png", plot_trajectory, lambda d: d.sensor is not None),
+    ("energy.png", plot_energy, lambda d: bool(d.energy)),
+    ("joints.png", plot_joints, lambda d: bool(d.rows)),
+)
+
+
+def plot_results(results: Path, folder: Path, warn: Progress = quiet) -> list[str]:
     """trajectory.png (first output group), energy.png and joints.png of the results file
-    ``results``, where the data exist; their names."""
-    traj = read_plot_data(results)
+    ``results`` into ``folder``, where the data exist; the names of those drawn. A picture
+    that cannot be drawn (or results that cannot be read for them) is a ``warn`` line naming
+    it and the reason, and is not written."""
+    try:
+        traj = read_plot_data(results)
+    except Exception as exc:  # any failure of a picture is a warning, never the run's loss
+        warn(f"warning: no pictures drawn: {results} could not be read for them "
+             f"({type(exc).__name__}: {exc})")
+        return []
     written = []
-    if traj.sensor is not None and len(traj.time) > 1:
-        plot_trajectory(traj, folder / "trajectory.png")
-        written.append("trajectory.png")
-    if traj.energy and len(traj.time) > 1:
-        plot_energy(traj, folder / "energy.png")
-        written.append("energy.png")
-    if traj.rows and len(traj.time) > 1:
-        plot_joints(traj, folder / "joints.png")
-        written.append("joints.png")
+    for name, draw, shown in PICTURES:
+        if not (shown(traj) and len(traj.time) > 1):
+            continue
+        try:
+            with atomic_file(folder / name) as tmp:
+                draw(traj, tmp)
+        except Exception as exc:
+            warn(f"warning: {name} could not be drawn ({type(exc).__name__}: {exc}); the "
+                 "run's results are complete without it")
+            continue
+        written.append(name)
     return written
