@@ -17,17 +17,20 @@ and a content checksum:
 
 Every command writes ``cache.json``, the SHA-256 of each cached file's bytes (mesh.msh,
 mesh.json, modes.h5, reduced.h5), and a listed file is hashed and compared before it is
-parsed: a damaged HDF5 file can crash the HDF5 library itself, and the files' own checksums
-do not cover HDF5 group names or mesh.json. A file the manifest does not list (copied in by
-hand, or from an older version) is left to its own checks. A product whose bytes do not
-match the manifest, whose key differs or that cannot be read is never used: the command
-says why in a progress line and computes it again. The plan is
+parsed: a damaged HDF5 file can crash the HDF5 library itself. Every cached file can also
+be verified without the manifest: mesh.json records mesh.msh's SHA-256 and carries its own
+(``files.checksums``), and the HDF5 files carry the checksums of every dataset, of their
+root attributes and of their layout (``files.versioned``). A file the manifest does not
+list — copied in by hand, or the manifest missing or damaged — is reused only if its own
+checks hold (a mesh.msh or mesh.json of an earlier version, which carry none, is not), and
+the manifest written next lists it again. A product whose bytes do not match a recorded
+checksum, whose key differs or that cannot be read is never used: the command says why in
+one progress line and computes it again. The plan is
 made before anything runs (rank 0), so the command knows which files it will replace.
 The simulation always runs: it is what a scene asks for. NumPy and h5py only.
 """
 from __future__ import annotations
 
-import hashlib
 import json
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -35,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from gcms_fenicsx.config.study import MESH_TABLES, StudyConfig
+from gcms_fenicsx.files.checksums import document_intact, file_sha256
 from gcms_fenicsx.files.modes_file import ModesFileError, StoredModes, read_modes
 from gcms_fenicsx.files.reduced_model import ReducedModel, ReducedModelError, read_reduced
 from gcms_fenicsx.reduction.spectrum import clusters, cut_cluster_warning
@@ -81,48 +85,69 @@ def owned_files(plan: Plan, owns: tuple[str, ...]) -> tuple[str, ...]:
     return tuple(name for name in owns if name not in plan.kept())
 
 
-def file_sha256(path: Path) -> str:
-    """SHA-256 of a file's bytes, read in blocks."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
+#: The mesh.json entry holding mesh.msh's SHA-256.
+MESH_CHECKSUM = "mesh_sha256"
 
 
-def read_manifest(out: Path) -> dict[str, str]:
-    """``out/cache.json``'s file → SHA-256 entries; empty if absent or not a manifest."""
+def read_manifest(out: Path) -> dict[str, str] | None:
+    """``out/cache.json``'s file → SHA-256 entries; None if it is absent or damaged (not a
+    manifest): then nothing is known of the files but what they carry themselves."""
     try:
         files = json.loads((Path(out) / MANIFEST).read_text())["files"]
     except (OSError, ValueError, KeyError, TypeError):
-        return {}
-    if not isinstance(files, dict):
-        return {}
-    return {name: sha for name, sha in files.items()
-            if name in CACHED_FILES and isinstance(sha, str)}
+        return None
+    if not isinstance(files, dict) or not all(isinstance(sha, str) for sha in files.values()):
+        return None
+    return {name: sha for name, sha in files.items() if name in CACHED_FILES}
 
 
-def write_manifest(out: Path, folder: Path, owned: tuple[str, ...]) -> None:
-    """``folder/cache.json``: the files this command staged, hashed, and the entries of
-    ``out``'s manifest for the cached files it leaves as they are (not in ``owned``)."""
+def write_manifest(out: Path, folder: Path, owned: tuple[str, ...], plan: "Plan") -> None:
+    """``folder/cache.json``: the cached files this command staged and those it reused (the
+    plan verified them), hashed, and the entries of ``out``'s manifest for the other cached
+    files it leaves as they are (not in ``owned``)."""
     from gcms_fenicsx.files.outputs import write_json
 
-    files = {name: sha for name, sha in read_manifest(out).items() if name not in owned}
+    files = {name: sha for name, sha in (read_manifest(out) or {}).items() if name not in owned}
+    files.update({name: file_sha256(out / name) for name in plan.kept()
+                  if name in CACHED_FILES and (out / name).is_file()})
     files.update({name: file_sha256(folder / name) for name in CACHED_FILES
                   if (folder / name).is_file()})
     write_json(folder / MANIFEST, {"files": dict(sorted(files.items()))})
 
 
-def _intact(out: Path, names: tuple[str, ...], progress: Progress, what: str) -> bool:
+def _intact(out: Path, manifest: dict[str, str] | None, names: tuple[str, ...],
+            progress: Progress, what: str) -> bool:
     """Whether the files ``names`` of ``out`` are those the manifest recorded (a line if not).
-    A file the manifest does not list (copied in, or from an older version) is left to its
-    own checks."""
-    manifest = read_manifest(out)
+    A file it does not list is left to its own checks."""
     for name in names:
-        if name in manifest and file_sha256(out / name) != manifest[name]:
+        if name in (manifest or {}) and file_sha256(out / name) != manifest[name]:
             progress(f"{what}: {out / name} does not match its checksum in {MANIFEST} "
                      "(changed or damaged); computing again")
             return False
+    return True
+
+
+def _mesh_record_intact(out: Path, manifest: dict[str, str] | None, document: dict,
+                        progress: Progress) -> bool:
+    """Whether mesh.json and mesh.msh pass the checks they carry themselves (mesh.json its own
+    checksum, mesh.msh the one mesh.json records); a file the manifest does not list must
+    carry one (a line if not)."""
+    listed = manifest or {}
+    own = document_intact(document)
+    if own is False or (own is None and "mesh.json" not in listed):
+        progress(f"mesh: {out / 'mesh.json'} " + ("does not match its own checksum (changed or "
+                 "damaged)" if own is False else f"carries no checksum and {MANIFEST} does not "
+                 "list it") + "; meshing again")
+        return False
+    recorded = document.get(MESH_CHECKSUM)
+    if recorded is None and "mesh.msh" not in listed:
+        progress(f"mesh: {out / 'mesh.msh'} has no checksum (none in mesh.json, not listed in "
+                 f"{MANIFEST}); meshing again")
+        return False
+    if recorded is not None and file_sha256(out / "mesh.msh") != recorded:
+        progress(f"mesh: {out / 'mesh.msh'} does not match its checksum in mesh.json (changed "
+                 "or damaged); meshing again")
+        return False
     return True
 
 
@@ -135,15 +160,20 @@ def plan(cfg: StudyConfig, out: Path, upto: str, fresh: bool, progress: Progress
     if fresh:
         progress("--fresh: every stage is computed, nothing in the output folder is reused")
         return Plan()
+    manifest = read_manifest(out)
+    if manifest is None and any((out / name).is_file() for name in CACHED_FILES):
+        progress(f"cache: {out / MANIFEST} is " + ("damaged" if (out / MANIFEST).exists() else
+                 "missing") + ": each cached file is reused only if its own checksums hold, "
+                 "and the manifest is written anew")
     shapes = cfg.outputs.mode_shapes and upto != "mesh"
-    reduced = cached_reduced(cfg, out, progress) if upto == "reduced" else None
+    reduced = cached_reduced(cfg, out, manifest, progress) if upto == "reduced" else None
     if reduced is not None and not shapes:
         return Plan(reduced=reduced)
     on_mesh = shapes or (upto == "reduced" and reduced is None and cfg.needs_svk)
-    modes = cached_modes(cfg, out, progress) if upto != "mesh" else None
+    modes = cached_modes(cfg, out, manifest, progress) if upto != "mesh" else None
     if modes is not None and not on_mesh:
         return Plan(modes=modes, reduced=reduced)
-    mesh = cached_mesh(cfg, out, progress)
+    mesh = cached_mesh(cfg, out, manifest, progress)
     if on_mesh and modes is not None and mesh is None:
         why = "mode shapes are written" if shapes else "the SVK coefficients are integrated"
         progress(f"modes: the cached modes' mesh cannot be reused, so neither can they "
@@ -152,12 +182,13 @@ def plan(cfg: StudyConfig, out: Path, upto: str, fresh: bool, progress: Progress
     return Plan(mesh=mesh, modes=modes, reduced=reduced)
 
 
-def cached_mesh(cfg: StudyConfig, out: Path, progress: Progress) -> CachedMesh | None:
+def cached_mesh(cfg: StudyConfig, out: Path, manifest: dict[str, str] | None,
+                progress: Progress) -> CachedMesh | None:
     """``out/mesh.msh`` if mesh.json says it was made from this study's [geometry] and [mesh]
-    and its checksum matches, else None."""
+    and the checksums of both hold, else None."""
     msh, record = out / "mesh.msh", out / "mesh.json"
     if not (msh.is_file() and record.is_file()) or \
-            not _intact(out, ("mesh.msh", "mesh.json"), progress, "mesh"):
+            not _intact(out, manifest, ("mesh.msh", "mesh.json"), progress, "mesh"):
         return None
     try:
         document = json.loads(record.read_text())
@@ -166,6 +197,8 @@ def cached_mesh(cfg: StudyConfig, out: Path, progress: Progress) -> CachedMesh |
     except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
         progress(f"mesh: {record} cannot be read ({exc}); meshing again")
         return None
+    if not _mesh_record_intact(out, manifest, document, progress):
+        return None
     if key != cfg.digest(*MESH_TABLES):
         progress(f"mesh: {msh} was made from other [geometry] or [mesh] values; meshing again")
         return None
@@ -173,11 +206,12 @@ def cached_mesh(cfg: StudyConfig, out: Path, progress: Progress) -> CachedMesh |
     return CachedMesh(msh_path=msh, info=info, document=document)
 
 
-def cached_modes(cfg: StudyConfig, out: Path, progress: Progress) -> StoredModes | None:
+def cached_modes(cfg: StudyConfig, out: Path, manifest: dict[str, str] | None,
+                 progress: Progress) -> StoredModes | None:
     """``out/modes.h5`` restricted to the modes this study asks for, if it was solved from
     the same inputs and holds them all, intact; else None."""
     path = out / "modes.h5"
-    if not path.is_file() or not _intact(out, ("modes.h5",), progress, "modes"):
+    if not path.is_file() or not _intact(out, manifest, ("modes.h5",), progress, "modes"):
         return None
     try:
         stored = read_modes(path)
@@ -242,11 +276,13 @@ def restricted(stored: StoredModes, count: int) -> StoredModes:
     return replace(stored, basis=basis, document=doc)
 
 
-def cached_reduced(cfg: StudyConfig, out: Path, progress: Progress) -> ReducedModel | None:
+def cached_reduced(cfg: StudyConfig, out: Path, manifest: dict[str, str] | None,
+                   progress: Progress) -> ReducedModel | None:
     """``out/reduced.h5`` if it was made from this study's upstream tables, intact, else None
     (with a progress line saying why it is rebuilt)."""
     path = out / "reduced.h5"
-    if not path.is_file() or not _intact(out, ("reduced.h5",), progress, "reduced model"):
+    if not path.is_file() or \
+            not _intact(out, manifest, ("reduced.h5",), progress, "reduced model"):
         return None
     try:
         model = read_reduced(path)

@@ -21,6 +21,7 @@ from geometry.params import surface_groups
 
 from gcms_fenicsx import pipeline, stage_cache
 from gcms_fenicsx.config.study import MESH_TABLES, StudyConfig
+from gcms_fenicsx.files.checksums import file_sha256, sealed_document
 from gcms_fenicsx.files.modes_file import StoredModes, write_modes
 from gcms_fenicsx.files.outputs import on_rank0, write_json
 from gcms_fenicsx.files.reduced_model import ReducedModel, write_reduced
@@ -55,7 +56,8 @@ def record_stage(stages: dict[str, dict], name: str, status: str, seconds: float
 def mesh_document(cfg: StudyConfig, product: pipeline.MeshProduct, mass: dict,
                   mass_time_s: float) -> dict:
     """The ``mesh.json`` document: counts, groups, and the mesh's mass properties (``mass``,
-    unit density) beside the CAD's; ``input_digest`` is the mesh cache's key."""
+    unit density) beside the CAD's; ``input_digest`` is the mesh cache's key and
+    ``mesh_sha256`` the SHA-256 of mesh.msh's bytes (``stage_cache``)."""
     info = product.info.to_json()
     return {
         "nodes": product.info.nodes,
@@ -68,9 +70,16 @@ def mesh_document(cfg: StudyConfig, product: pipeline.MeshProduct, mass: dict,
         "physical_groups": sorted(product.info.groups),
         "geometry": info,
         "input_digest": cfg.digest(*MESH_TABLES),
+        stage_cache.MESH_CHECKSUM: file_sha256(product.msh_path),
         "warnings": list(product.warnings),
         "timings_s": {"geometry_and_mesh": product.wall_time_s, "mesh_integrals": mass_time_s},
     }
+
+
+def write_mesh_json(folder: Path, document: dict, stages: dict) -> None:
+    """``folder``/mesh.json: ``document`` with the ``stages`` block, sealed with its own
+    checksum (``files.checksums``) so that it is verifiable without cache.json."""
+    write_json(folder / "mesh.json", sealed_document(dict(document, stages=stages)))
 
 
 def mesh_summary(document: dict) -> str:
@@ -192,7 +201,7 @@ def _modes(cfg: StudyConfig, folder: Path, progress: Progress, comm: Any,
     report["attachment_modes"] = list(modes.attachment_labels)
     if comm.rank == 0:
         if plan.mesh is None:
-            write_json(folder / "mesh.json", dict(mesh_doc, stages=stages))
+            write_mesh_json(folder, mesh_doc, stages)
         texts.append(mesh_summary(mesh_doc))
         report["mesh"] = {key: mesh_doc[key] for key in ("nodes", "cells", "order", "volume_m3")}
         write_modes(folder / "modes.h5", StoredModes(basis=basis, document=report,
@@ -278,7 +287,7 @@ def build(cfg: StudyConfig, folder: Path, progress: Progress, comm: Any,
         document = _mesh_alone(cfg, folder, progress, comm, plan, stages)
         if comm.rank == 0:
             if plan.mesh is None:
-                write_json(folder / "mesh.json", dict(document, stages=stages))
+                write_mesh_json(folder, document, stages)
             texts.append(mesh_summary(document))
         return Built(texts, stages)
     if upto == "reduced" and plan.reduced is not None and not cfg.outputs.mode_shapes:

@@ -274,3 +274,125 @@ def test_attachment_modes_are_fields_of_the_cached_basis(tmp_path):
     run = gcms("reduce", str(config), "--out", str(out))
     assert run.returncode == 0, run.stderr
     assert stages(out)["modes"] == "reused"
+
+
+def _move_a_node(path: Path) -> None:
+    """The lowest bit of a byte halfway through mesh.msh's node block flipped: in the binary
+    block three doubles per node dominate, so a coordinate moves by round-off — a change no
+    reader of the file notices (it meshed and solved silently before)."""
+    data = bytearray(path.read_bytes())
+    start, end = data.index(b"$Nodes"), data.index(b"$EndNodes")
+    data[(start + end) // 2] ^= 0x01
+    path.write_bytes(bytes(data))
+
+
+def _damage(out: Path, what: str) -> str:
+    """Damage one cached file of ``out`` as ``what`` says; the file's name."""
+    import h5py
+    if what == "mesh.msh bit":
+        with open(out / "mesh.msh", "r+b") as f:
+            f.seek(2000)
+            byte = f.read(1)
+            f.seek(2000)
+            f.write(bytes([byte[0] ^ 0x04]))
+    elif what == "mesh.msh node moved":
+        _move_a_node(out / "mesh.msh")
+    elif what == "mesh.json edited":
+        record = json.loads((out / "mesh.json").read_text())
+        record["geometry"]["groups"]["end_xL"] = [2, 2]
+        (out / "mesh.json").write_text(json.dumps(record))
+    elif what == "modes.h5 bit":
+        _flip_a_byte(out / "modes.h5", "stiffness")
+    elif what == "modes.h5 group renamed":
+        with h5py.File(out / "modes.h5", "r+") as f:
+            f.move("groups/end_xL", "groups/end_xQ")
+    elif what == "reduced.h5 bit":
+        _flip_a_byte(out / "reduced.h5", "stiffness")
+    return what.split()[0]
+
+
+#: Each cached file damaged in turn, and the stage whose product it is.
+DAMAGES = {"mesh.msh bit": "mesh", "mesh.msh node moved": "mesh", "mesh.json edited": "mesh",
+           "modes.h5 bit": "modes", "modes.h5 group renamed": "modes",
+           "reduced.h5 bit": "reduced"}
+
+
+@pytest.fixture(scope="module")
+def reduced_once(tmp_path_factory) -> tuple[Path, Path]:
+    """The six-mode test beam reduced once for the module: (study, --out)."""
+    folder = tmp_path_factory.mktemp("cache")
+    config, out = folder / "study.toml", folder / "out"
+    config.write_text(beam_study(6))
+    run = gcms("reduce", str(config), "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    return config, out
+
+
+@pytest.mark.parametrize("manifest", ["damaged", "missing", "empty"])
+@pytest.mark.parametrize("damage", list(DAMAGES))
+def test_without_the_manifest_every_cached_file_guards_itself(reduced_once, tmp_path,
+                                                              manifest, damage):
+    """cache.json damaged (not JSON), missing or listing nothing, and one cached file damaged
+    in turn — a flipped byte or a moved node in mesh.msh, an edited mesh.json, a flipped byte
+    or a renamed group in modes.h5, a flipped byte in reduced.h5: the plan does not reuse
+    that stage's product, says so in one line naming the file, and reuses the intact
+    products below it (mesh.json records mesh.msh's SHA-256 and its own; the HDF5 files
+    carry their content and layout checksums). Before, a file the manifest did not list was
+    trusted: a flipped byte in mesh.msh ended in a Gmsh traceback, a moved node was meshed
+    and solved silently."""
+    import shutil
+
+    from gcms_fenicsx import stage_cache
+    from gcms_fenicsx.config.study import load_config
+
+    config, source = reduced_once
+    out = tmp_path / "out"
+    shutil.copytree(source, out)
+    if manifest == "damaged":
+        (out / "cache.json").write_text('{"files": {"mesh.msh": ')
+    elif manifest == "missing":
+        (out / "cache.json").unlink()
+    else:
+        (out / "cache.json").write_text('{"files": {}}')
+    name = _damage(out, damage)
+    stage = DAMAGES[damage]
+    if stage != "reduced":            # an intact reduced model spares the stages above it
+        (out / "reduced.h5").unlink()
+    if stage == "mesh":
+        (out / "modes.h5").unlink()
+    lines: list[str] = []
+    plan = stage_cache.plan(load_config(config), out, "reduced", False, lines.append)
+    refused = [line for line in lines if name in line]
+    assert len(refused) == 1, lines
+    assert "again" in refused[0] or "rebuilding" in refused[0], refused
+    assert (manifest == "empty") != any("cache.json is" in line for line in lines), lines
+    product = {"mesh": plan.mesh, "modes": plan.modes, "reduced": plan.reduced}
+    assert product[stage] is None
+    assert (plan.mesh is not None) == (stage == "modes"), lines
+
+
+def test_a_damaged_manifest_is_written_anew_and_protects_again(reduced_once, tmp_path):
+    """The issue's sequence on the command line: cache.json damaged, ``gcms reduce`` reuses
+    what verifies itself and writes the manifest anew listing every cached file (before: it
+    wrote ``{"files": {}}``); then a node moved in mesh.msh with a fresh study that needs the
+    mesh (more modes) is caught by the manifest and by mesh.json in one line, and the command
+    meshes again, exit 0."""
+    import shutil
+
+    config, source = reduced_once
+    out = tmp_path / "out"
+    shutil.copytree(source, out)
+    (out / "cache.json").write_text("{damaged")
+    run = gcms("reduce", str(config), "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    assert "cache.json is damaged" in run.stderr and "reusing" in run.stderr, run.stderr
+    manifest = json.loads((out / "cache.json").read_text())["files"]
+    assert set(manifest) == {"mesh.msh", "mesh.json", "modes.h5", "reduced.h5"}
+    _move_a_node(out / "mesh.msh")
+    more = tmp_path / "more.toml"
+    more.write_text(beam_study(8))
+    run = gcms("reduce", str(more), "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    assert "mesh.msh does not match its checksum" in run.stderr, run.stderr
+    assert "Traceback" not in run.stderr
+    assert stages(out)["mesh"] == "computed"

@@ -8,8 +8,10 @@ with the path first.
 
 Content checksums: a writer calls :func:`seal` on the finished file. Every dataset then
 carries the SHA-256 of its contents (``sha256`` attribute; :func:`dataset_digest` says what
-is hashed) and the root carries the SHA-256 of its other attributes
-(``attributes_sha256``). From ``checksums_since`` on, :func:`open_versioned` verifies all of
+is hashed), the root the SHA-256 of its layout, the sorted paths of its datasets
+(``layout_sha256``, among the attributes: a renamed group is caught), and of its other
+attributes (``attributes_sha256``). Files sealed before the layout was (no
+``layout_sha256``) are verified without it. From ``checksums_since`` on, :func:`open_versioned` verifies all of
 them before the reader sees the file, so a changed or damaged value — one flipped bit in a
 matrix that still looks valid — is an error naming the dataset, not silently read.
 NumPy and h5py only: the standalone integrator reads through it.
@@ -30,6 +32,7 @@ H5PY_ERRORS = (OSError, KeyError, RuntimeError, ValueError, TypeError)
 #: Attribute holding a dataset's checksum, and the root's checksum of its other attributes.
 DATASET_CHECKSUM = "sha256"
 ATTRIBUTES_CHECKSUM = "attributes_sha256"
+LAYOUT_CHECKSUM = "layout_sha256"
 
 
 class DigestBuilder:
@@ -97,6 +100,12 @@ def _datasets(f: h5py.File) -> list[h5py.Dataset]:
     return found
 
 
+def layout_digest(f: h5py.File) -> str:
+    """SHA-256 of the sorted paths of the datasets of ``f``."""
+    paths = sorted(ds.name for ds in _datasets(f))
+    return hashlib.sha256("\n".join(paths).encode()).hexdigest()
+
+
 def seal(f: h5py.File, digests: dict[str, str] | None = None) -> None:
     """Write the checksum of every dataset of the open file ``f`` and of its root attributes.
 
@@ -106,6 +115,7 @@ def seal(f: h5py.File, digests: dict[str, str] | None = None) -> None:
     digests = digests or {}
     for ds in _datasets(f):
         ds.attrs[DATASET_CHECKSUM] = digests.get(ds.name) or stored_digest(ds)
+    f.attrs[LAYOUT_CHECKSUM] = layout_digest(f)
     f.attrs[ATTRIBUTES_CHECKSUM] = attributes_digest(f.attrs)
 
 
@@ -118,6 +128,9 @@ def verify(f: h5py.File, error: type[Exception], where: str) -> None:
                     f"{damaged}" if ATTRIBUTES_CHECKSUM in f.attrs
                     else f"{where}: no content checksum ({ATTRIBUTES_CHECKSUM}): the file was "
                          "not written (or not finished) by gcms-fenicsx")
+    if LAYOUT_CHECKSUM in f.attrs and f.attrs[LAYOUT_CHECKSUM] != layout_digest(f):
+        raise error(f"{where}: its datasets' paths do not match their checksum (a group or "
+                    f"dataset renamed, added or removed): the file was {damaged}")
     for ds in _datasets(f):
         stored = ds.attrs.get(DATASET_CHECKSUM)
         if stored is None:
