@@ -20,7 +20,7 @@ REPO = Path(__file__).resolve().parents[1]
 # before anything imports dolfinx: compiled forms go to the repo's ignored .cache/
 os.environ.setdefault("XDG_CACHE_HOME", str(REPO / ".cache"))
 logging.disable(logging.INFO)  # the JIT's C build logs every compiler call at INFO
-sys.path.insert(0, str(Path(__file__).parent))  # test helper modules (beam_theory, ...)
+sys.path.insert(0, str(Path(__file__).parent))  # test helper modules (beams, simulate_runs, ...)
 
 #: Set by tests/dynamics/no_fe_stack/sitecustomize.py: the modules it makes unimportable.
 NO_FE_STACK = "GCMS_NO_FE_STACK"

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from beam_theory import bar_hz, cowper_kappa, rectangle_torsion_constant, timoshenko_hz, torsion_hz
+from gcms_fenicsx.references.beam_theory import bar_hz, cowper_kappa, rectangle_torsion_constant, timoshenko_hz, torsion_hz
 from gcms_fenicsx import pipeline
 from gcms_fenicsx.fe import algebra, assembly, modes
 from gcms_fenicsx.config.material import Material

@@ -9,7 +9,7 @@ import pytest
 from mpi4py import MPI
 from dolfinx.mesh import CellType, create_box
 
-from beam_theory import cowper_kappa, euler_bernoulli_hz, timoshenko_hz
+from gcms_fenicsx.references.beam_theory import cowper_kappa, euler_bernoulli_hz, timoshenko_hz
 from symmetric_mesh import symmetric_box
 from gcms_fenicsx import pipeline
 from gcms_fenicsx.fe import algebra, eigensolve, factor, mass, verification

@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 from mpi4py import MPI
 
-from beam_theory import cowper_kappa, timoshenko_hz
+from gcms_fenicsx.references.beam_theory import cowper_kappa, timoshenko_hz
 from gcms_fenicsx import pipeline
 from gcms_fenicsx.config.material import Material
 from gcms_fenicsx.fe.mesh import read_mesh

@@ -4,11 +4,9 @@ frequencies the finite-element ones are held against."""
 from __future__ import annotations
 
 import math
-import sys
 
 import numpy as np
 
-from stress import REPO
 
 
 def rel(a: float | None, b: float | None) -> float | None:
@@ -89,7 +87,7 @@ def downsample(t: np.ndarray, y: np.ndarray, n: int = 400) -> dict:
 def beam_references(E: float, nu: float, rho: float, b: float, h: float, L: float,
                     n: int = 1) -> dict:
     """n-th free-free bending of a b × h rectangle about the axis of h (displacement along h):
-    Euler–Bernoulli and Timoshenko (Cowper κ), from tests/beam_theory.py.
+    Euler–Bernoulli and Timoshenko (Cowper κ), from gcms_fenicsx/references/beam_theory.py.
 
     Beyond L/h = 100 the Timoshenko value is f_EB (1 − C (h/L)²) with C from the same section
     at L/h = 100: the correction's leading term, whose next one, O((h/L)⁴), is about 1e-7 at
@@ -98,9 +96,8 @@ def beam_references(E: float, nu: float, rho: float, b: float, h: float, L: floa
     κGA/Δx of its 4000 elements, so it moves by 1e-7 between calls at L/h = 200 (ARPACK's
     random start), differs from the leading term by 5e-7 at 200 and 1e-6 at 400, and SuperLU
     finds it exactly singular at 300, 500 and 1000."""
-    if str(REPO / "tests") not in sys.path:
-        sys.path.insert(0, str(REPO / "tests"))
-    from beam_theory import cowper_kappa, euler_bernoulli_hz, timoshenko_hz
+    from gcms_fenicsx.references.beam_theory import (cowper_kappa, euler_bernoulli_hz,
+                                                     timoshenko_hz)
     A, I = b * h, b * h ** 3 / 12
     kappa = cowper_kappa("rectangle", nu)
     eb = float(euler_bernoulli_hz(n, E, I, rho, A, L))

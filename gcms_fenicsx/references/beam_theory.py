@@ -1,6 +1,6 @@
 """Reference frequencies of free-free prismatic beams from classical beam theories.
 
-Used by the tests as references nobody here tuned:
+Used by the tests and the stability workflow as references nobody here tuned:
 - Euler–Bernoulli bending: ω_n = (β_n L)² √(EI / ρA L⁴), cos βL cosh βL = 1
   (Blevins, *Formulas for Natural Frequency and Mode Shape*, 1979, Table 8-1).
 - Timoshenko bending (shear deformation and rotary inertia, Timoshenko 1921): the
