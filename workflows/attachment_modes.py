@@ -20,22 +20,18 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before NumPy: timings of one core
 
-import argparse
-import json
-import logging
-import tempfile
 import time
 from dataclasses import replace
 from pathlib import Path
+
+from common import parser, quiet, table_head, temporary_folder, write_record
 
 MODE_COUNTS = (5, 10, 15, 20)
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("docs/attachment_modes"))
-    args = parser.parse_args()
-    logging.disable(logging.INFO)
+    args = parser(__doc__, out="docs/attachment_modes").parse_args()
+    quiet()
     import numpy as np
 
     from gcms_fenicsx import pipeline
@@ -48,8 +44,8 @@ def main() -> None:
 
     cfg = parse_config(dict(pendulum.STUDY, modes={"count": max(MODE_COUNTS)},
                             basis={"attachment": "scene"}), "flexible pendulum")
-    with tempfile.TemporaryDirectory() as tmp:
-        chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, Path(tmp))
+    with temporary_folder() as tmp:
+        chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, tmp)
     model, body = chain.assembly.model, chain.body
     full = full_order_body(model, group_weights(body, model.Vs))
     rigid = pendulum.rigid_pendulum(full, np.array(cfg.scene.gravity), cfg.scene.end_time_s)
@@ -76,12 +72,11 @@ def main() -> None:
                          "online_s": wall})
     document = {"attachment_modes": list(chain.modes.attachment_labels),
                 "reference_a_s": ref_s, "rows": rows}
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    Path(f"{args.out}.json").write_text(json.dumps(document, indent=1))
+    write_record(Path(f"{args.out}.json"), document)
     print(f"attachment modes: {', '.join(chain.modes.attachment_labels)}; reference (a) "
           f"{ref_s:.1f} s")
-    print("\n| Nm | attachment | coordinates | error vs (a) | simulation s |")
-    print("|---|---|---|---|---|")
+    print("\n" + "\n".join(table_head("Nm", "attachment", "coordinates", "error vs (a)",
+                                      "simulation s")))
     for r in rows:
         print(f"| {r['modes']} | {r['attachment']} | {r['coordinates']} | "
               f"{100 * r['error_vs_a']:.3f} % | {r['online_s']:.2f} |")

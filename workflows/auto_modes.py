@@ -21,71 +21,29 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before NumPy
 
-import argparse
-import json
-import logging
-import tempfile
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+
+from common import parser, quiet, table_head, temporary_folder, write_record
+from common.crankshaft import OUTPUTS, default_study, errors, outputs
 
 REFERENCE_MODES = 20
-OUTPUTS = ("nose whirl", "bearing forces", "drive torque")
-#: The errors are also given from this time on (``crankshaft_reference``): with loads applied
-#: at once the first recorded sample holds the multipliers consistent with them (index 3),
-#: which a reduced body spreads over its modes and the full model keeps local, not the
-#: dynamics. The default scene's loads now rise in from rest, and the two measures agree.
-START_S = 1e-3
-
-
-def outputs(results: Path | Any) -> dict[str, Any]:
-    """The scene's outputs of interest from results.h5 (a path, or the file as
-    ``read_results`` returned it), per output a (time, components) array."""
-    import numpy as np
-
-    from gcms_fenicsx.dynamics.results import joint_force, read_results
-
-    r = read_results(results) if isinstance(results, Path) else results
-    torque = [i for i, row in enumerate(r.rows) if row["kind"] == "drive_moment"]
-    return {"nose whirl": r.groups["end_x0"]["position"][:, 1:],
-            "bearing forces": np.hstack([joint_force(r.rows, r.multipliers, j)
-                                         for j in ("front_bearing", "rear_bearing")]),
-            "drive torque": -r.multipliers[:, torque]}
-
-
-def errors(run: dict, reference: dict) -> dict[str, float]:
-    """max_t |y − y_ref| / max_t |y_ref| per output, and their maximum."""
-    import numpy as np
-    out = {name: float(np.abs(run[name] - reference[name]).max() / np.abs(reference[name]).max())
-           for name in OUTPUTS}
-    return dict(out, maximum=max(out.values()))
-
-
-def after_start(out: dict, time: Any) -> dict:
-    """The outputs from START_S on."""
-    late = time >= START_S
-    return {k: out[k][late] for k in OUTPUTS}
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("docs/auto_modes"))
-    args = parser.parse_args()
-    logging.disable(logging.INFO)
-    import tomllib
-
+    args = parser(__doc__, out="docs/auto_modes").parse_args()
+    quiet()
     import numpy as np
 
     from gcms_fenicsx import pipeline
-    from gcms_fenicsx.config.study import default_config_text, parse_config
+    from gcms_fenicsx.config.study import parse_config
     from gcms_fenicsx.dynamics.simulate import simulate_to_file
 
-    raw = dict(tomllib.loads(default_config_text()), basis={"attachment": "none"})
+    raw = default_study(basis={"attachment": "none"})
     cfg = parse_config(raw)
     auto = parse_config(dict(raw, modes={"count": "auto"}))
     band = auto.modes.band
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp = Path(tmp)
+    with temporary_folder() as tmp:
         chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material,
                                    replace(cfg.modes, count=REFERENCE_MODES), tmp)
         every = pipeline.basis_stage(chain.assembly.model, chain.modes, chain.body)
@@ -111,13 +69,11 @@ def main() -> None:
                 "auto_errors": next(r for r in rows if r["modes"] == chosen),
                 "frequencies_hz": hz.tolist(), "rows": rows,
                 "h_against_half_h": {str(nm): e for nm, e in step_check.items()}}
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    Path(f"{args.out}.json").write_text(json.dumps(document, indent=1))
+    write_record(Path(f"{args.out}.json"), document)
     print(f"band: {band.max_frequency_hz:.1f} Hz, set by {band.set_by} "
           f"(excitation {band.excitation_hz:.1f} Hz × {band.factor:g}, the time step resolves "
           f"{band.resolved_hz:.0f} Hz): {chosen} modes")
-    print("\n| Nm | coordinates | f_Nm Hz | nose whirl | bearing forces | drive torque |")
-    print("|---|---|---|---|---|---|")
+    print("\n" + "\n".join(table_head("Nm", "coordinates", "f_Nm Hz", *OUTPUTS)))
     for r in rows:
         mark = " (auto)" if r["modes"] == chosen else ""
         print(f"| {r['modes']}{mark} | {r['coordinates']} | {r['highest_frequency_hz']:.0f} | "

@@ -20,14 +20,15 @@ prints a Markdown table (the one in README.md).
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
+
+from common import log, parser, fmt as _fmt, pyplot, quiet, save_figure, temporary_folder
+from common import table_head, table_row, worker_options, write_record
 
 COUNT = 10
 BODIES = {
@@ -48,8 +49,6 @@ QUICK = [("beam", 1, 0.008), ("beam", 2, 0.022), ("beam", 2, 0.012)]
 
 def worker(body: str, order: int, size: float, scipy_max: int) -> dict:
     """One case in this process (serial or under mpirun): timings and frequencies."""
-    import logging
-
     import numpy as np
     from mpi4py import MPI
 
@@ -57,12 +56,12 @@ def worker(body: str, order: int, size: float, scipy_max: int) -> dict:
     from gcms_fenicsx.config.study import parse_config
     from gcms_fenicsx.fe import factor
 
-    logging.disable(logging.INFO)
+    quiet()
     comm = MPI.COMM_WORLD
     cfg = parse_config({"geometry": BODIES[body], "mesh": {"size": size, "order": order},
                         "modes": {"count": COUNT}})
-    with tempfile.TemporaryDirectory() as tmp:
-        folder = Path(comm.bcast(tmp if comm.rank == 0 else None))  # rank 0's, for every rank
+    with temporary_folder() as tmp:
+        folder = Path(comm.bcast(str(tmp) if comm.rank == 0 else None))  # rank 0's, for every rank
         body_mesh = pipeline.body_mesh(pipeline.mesh_stage(cfg.geometry, cfg.mesh, folder,
                                                            comm=comm), comm)
         comm.barrier()  # every rank has read the mesh before rank 0 removes the folder
@@ -116,15 +115,10 @@ def run_case(case: tuple, ranks: int, scipy_max: int) -> dict:
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
-def _fmt(value: float | None, spec: str) -> str:
-    return "" if value is None else format(value, spec)
-
-
 def table(rows: list[dict]) -> str:
-    head = ("| body | P | DOFs | assembly s | eigen-solve s | factorisation s | solve/factor "
-            "| SciPy eigsh s | SciPy/SLEPc | 2 ranks s | 1/2 ranks | max freq. error "
-            "| selection + reduction s | / eigen-solve |")
-    lines = [head, "|" + "---|" * 14]
+    lines = table_head("body", "P", "DOFs", "assembly s", "eigen-solve s", "factorisation s",
+                       "solve/factor", "SciPy eigsh s", "SciPy/SLEPc", "2 ranks s", "1/2 ranks",
+                       "max freq. error", "selection + reduction s", "/ eigen-solve")
     for r in rows:
         scipy_s, two = r.get("scipy_eigsh_s"), r.get("two_ranks_eigensolve_s")
         reduction = r.get("selection_and_reduction_s")
@@ -135,16 +129,12 @@ def table(rows: list[dict]) -> str:
                  _fmt(two and r["eigensolve_s"] / two, ".2f"),
                  "ref." if r["error"] is None else _fmt(r["error"], ".1e"),
                  _fmt(reduction, ".2f"), _fmt(reduction and reduction / r["eigensolve_s"], ".1%")]
-        lines.append("| " + " | ".join(cells) + " |")
+        lines.append(table_row(*cells))
     return "\n".join(lines)
 
 
 def plot(rows: list[dict], path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
     for ax, body in zip(axes, BODIES):
         for order, style in ((1, "s--"), (2, "o-")):
@@ -161,18 +151,15 @@ def plot(rows: list[dict], path: Path) -> None:
         ax.set_ylabel("max relative frequency error vs finest P2")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend()
-    fig.tight_layout()
-    fig.savefig(path, dpi=130)
+    save_figure(fig, path, dpi=130)
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("docs/bench_eigen"))
-    parser.add_argument("--quick", action="store_true", help="three small cases (a smoke run)")
-    parser.add_argument("--scipy-max", type=int, default=110_000,
-                        help="largest DOF count SciPy eigsh is run on")
-    parser.add_argument("--worker", help=argparse.SUPPRESS)
-    args = parser.parse_args()
+    options = parser(__doc__, out="docs/bench_eigen", quick="three small cases (a smoke run)")
+    options.add_argument("--scipy-max", type=int, default=110_000,
+                         help="largest DOF count SciPy eigsh is run on")
+    worker_options(options, "--worker")
+    args = options.parse_args()
     if args.worker:
         body, order, size = json.loads(args.worker)
         result = worker(body, order, size, args.scipy_max)
@@ -191,8 +178,8 @@ def main() -> None:
             row["two_ranks_max_rel_difference"] = max(
                 abs(a / b - 1) for a, b in zip(two["frequencies_hz"], row["frequencies_hz"]))
         rows.append(row)
-        print(f"{case}: {row['ndofs']} DOFs, eigen-solve {row['eigensolve_s']:.1f} s "
-              f"({time.perf_counter() - t0:.0f} s for the case)", file=sys.stderr, flush=True)
+        log(f"{case}: {row['ndofs']} DOFs, eigen-solve {row['eigensolve_s']:.1f} s "
+            f"({time.perf_counter() - t0:.0f} s for the case)")
     for body in BODIES:
         finest = [r for r in rows if r["body"] == body and r["order"] == 2]
         if not finest:
@@ -202,8 +189,7 @@ def main() -> None:
             if r["body"] == body:
                 r["error"] = None if r is ref else max(
                     abs(a / b - 1) for a, b in zip(r["frequencies_hz"], ref["frequencies_hz"]))
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    Path(f"{args.out}.json").write_text(json.dumps({"count": COUNT, "rows": rows}, indent=2))
+    write_record(Path(f"{args.out}.json"), {"count": COUNT, "rows": rows}, indent=2)
     plot(rows, Path(f"{args.out}.png"))
     print(table(rows))
 

@@ -28,7 +28,8 @@ absolute speed varies.
     python workflows/bench_integrator.py [--out docs/bench_integrator] [--repeat 3]
                                          [--before DIR]
 
-writes OUT.json, OUT.png and prints the tables recorded in README.md.
+writes OUT.json (``pendulum``: a row a case; ``variants`` with ``--before``), OUT.png and prints
+the tables recorded in README.md.
 """
 from __future__ import annotations
 
@@ -38,23 +39,19 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before NumPy
 
 import argparse
 import json
-import logging
 import subprocess
 import sys
-import tempfile
 from dataclasses import replace
 from pathlib import Path
+
+from common import REPO, checkout, log, parser, pyplot, quiet, save_figure, table_head
+from common import table_row, temporary_folder, worker_options, write_record
+from common.crankshaft import default_study
 
 MODE_COUNTS = (5, 10, 20, 50)
 MATERIALS_E_PA = {"soft": 1.0e8, "stiff": 3.0e9}
 VARIANT_MODES = 10      # the variants run on the soft pendulum with this Nm
 BASELINE_TIME_S = 0.1   # the assembled baseline is slow: its rate is measured on 100 steps
-HERE = Path(__file__).resolve().parent
-REPO = HERE.parent
-
-
-def log(message: str) -> None:
-    print(message, file=sys.stderr, flush=True)
 
 
 def bodies():
@@ -70,8 +67,8 @@ def bodies():
 
     cfg = parse_config(dict(pendulum.STUDY, modes={"count": max(MODE_COUNTS)},
                             basis={"attachment": "none"}))
-    with tempfile.TemporaryDirectory() as tmp:
-        body_mesh = pipeline.body_mesh(pipeline.mesh_stage(cfg.geometry, cfg.mesh, Path(tmp)))
+    with temporary_folder() as tmp:
+        body_mesh = pipeline.body_mesh(pipeline.mesh_stage(cfg.geometry, cfg.mesh, tmp))
     none = SelectionConfig(cosine_tolerance=0.0, svd_tolerance=0.0, orthonormalize=False)
     for material, E in MATERIALS_E_PA.items():
         steel_or_soft = parse_material(dict(pendulum.STUDY["material"], E=E))
@@ -136,10 +133,8 @@ def worker(model_path: str, scene_name: str, runs: int, save: str) -> None:
     from gcms_fenicsx.dynamics import parse_scene, read_reduced, simulate
 
     if scene_name == "default":
-        import tomllib
-
-        from gcms_fenicsx.config.study import default_config_text, parse_config
-        scene = parse_config(tomllib.loads(default_config_text())).scene
+        from gcms_fenicsx.config.study import parse_config
+        scene = parse_config(default_study()).scene
     else:
         from gcms_fenicsx.references import pendulum
         scene = parse_scene(dict(pendulum.STUDY["scene"], **VARIANTS[scene_name]))
@@ -200,13 +195,11 @@ def before_after(model_path: Path, scene_name: str, before: Path, rounds: int) -
 def default_scene_model(folder: Path) -> tuple[Path, int]:
     """The reduced model of ``gcms run``'s built-in study, through the pipeline's stages, and
     its mode count."""
-    import tomllib
-
     from gcms_fenicsx import pipeline
-    from gcms_fenicsx.config.study import default_config_text, parse_config
+    from gcms_fenicsx.config.study import parse_config
     from gcms_fenicsx.files.reduced_model import write_reduced
 
-    cfg = parse_config(dict(tomllib.loads(default_config_text()), basis={"attachment": "none"}))
+    cfg = parse_config(default_study(basis={"attachment": "none"}))
     chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, folder)
     reduction = pipeline.reduction_stage(
         pipeline.basis_stage(chain.assembly.model, chain.modes, chain.body), cfg.selection)
@@ -216,22 +209,17 @@ def default_scene_model(folder: Path) -> tuple[Path, int]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("docs/bench_integrator"))
-    parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--before", type=Path, default=None,
-                        help="a checkout of the code to compare against")
-    parser.add_argument("--worker", default=None, help=argparse.SUPPRESS)
-    parser.add_argument("--scene", default="pendulum", help=argparse.SUPPRESS)
-    parser.add_argument("--save", default=None, help=argparse.SUPPRESS)
-    args = parser.parse_args()
+    options = parser(__doc__, out="docs/bench_integrator", repeat=3)
+    options.add_argument("--before", type=Path, default=None,
+                         help="a checkout of the code to compare against")
+    worker_options(options, "--worker", "--save")
+    options.add_argument("--scene", default="pendulum", help=argparse.SUPPRESS)
+    args = options.parse_args()
     if args.worker:
         worker(args.worker, args.scene, 2, args.save)
         return
-    if args.before is not None and not (args.before / "gcms_fenicsx").is_dir():
-        parser.error(f"--before {args.before}: no gcms_fenicsx package there (make one with "
-                     "git worktree add DIR <commit>)")
-    logging.disable(logging.INFO)
+    checkout(options, args.before)
+    quiet()
     from gcms_fenicsx.dynamics.scene import parse_scene
     from gcms_fenicsx.files.reduced_model import write_reduced
     from gcms_fenicsx.references import pendulum
@@ -239,7 +227,7 @@ def main() -> None:
     scene = parse_scene(pendulum.STUDY["scene"])
     rows: list[dict] = []
     variants: dict[str, dict] = {}
-    with tempfile.TemporaryDirectory() as tmp:
+    with temporary_folder() as tmp:
         for material, nm, label, model, body, report in bodies():
             row = {"material": material, "modes": nm, "selection": label}
             if body is None:
@@ -250,7 +238,7 @@ def main() -> None:
                 row["rotated"] = timed(body, scene, "rotated", args.repeat)
                 row["assembled"] = timed(body, scene, "assembled", args.repeat)
                 if args.before is not None and label == "default":
-                    path = Path(tmp) / f"{material}{nm}.h5"
+                    path = tmp / f"{material}{nm}.h5"
                     write_reduced(path, model)
                     row["before_after"] = before_after(path, "pendulum", args.before,
                                                        args.repeat)
@@ -260,17 +248,15 @@ def main() -> None:
         if args.before is not None:
             for name in list(VARIANTS)[1:]:
                 log(f"soft, Nm = {VARIANT_MODES}, {name}: before and after")
-                variants[name] = dict(before_after(Path(tmp) / f"soft{VARIANT_MODES}.h5", name,
+                variants[name] = dict(before_after(tmp / f"soft{VARIANT_MODES}.h5", name,
                                                    args.before, args.repeat),
                                       modes=VARIANT_MODES)
             log("default scene: meshing and solving the crankshaft")
-            path, modes = default_scene_model(Path(tmp))
+            path, modes = default_scene_model(tmp)
             variants["default scene (crankshaft)"] = dict(
                 before_after(path, "default", args.before, args.repeat), modes=modes)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    Path(f"{args.out}.json").write_text(json.dumps(
-        {"pendulum": rows, "variants": variants} if args.before is not None else rows,
-        indent=1))
+    write_record(Path(f"{args.out}.json"), {"pendulum": rows, "variants": variants}
+                 if args.before is not None else {"pendulum": rows})
     plot(rows, Path(f"{args.out}.png"))
     print(table(rows))
     if args.before is not None:
@@ -287,9 +273,9 @@ def _cell(run: dict) -> tuple[str, str, str]:
 
 def before_after_table(rows: list[dict], variants: dict[str, dict]) -> str:
     """µs per step before and after, with the trajectories' agreement, per case."""
-    lines = ["| case | Nm | reduced DOFs | µs/step before | µs/step after | speedup | same Newton "
-             "iterations | max rel. q difference | max rel. λ difference |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    lines = table_head("case", "Nm", "reduced DOFs", "µs/step before", "µs/step after",
+                       "speedup", "same Newton iterations", "max rel. q difference",
+                       "max rel. λ difference")
     cases = [(f"{r['material']} pendulum", r["modes"], r["reduced_dofs"], r["before_after"])
              for r in rows if "before_after" in r]
     cases += [(f"soft pendulum, {name}" if name in VARIANTS else name, ba["modes"],
@@ -298,18 +284,16 @@ def before_after_table(rows: list[dict], variants: dict[str, dict]) -> str:
         if "speedup" not in ba:
             lines.append(f"| {name} | {nm} | {dofs} | failed: {json.dumps(ba)[:80]} | | | | | |")
             continue
-        lines.append(f"| {name} | {nm} | {dofs} | {ba['before']['time_per_step_us']:,.0f} | "
-                     f"{ba['after']['time_per_step_us']:,.0f} | {ba['speedup']:.2f}× | "
-                     f"{'yes' if ba['same_iterations'] else 'NO'} | "
-                     f"{ba['max_rel_q_difference']:.1e} | "
-                     f"{ba['max_rel_multiplier_difference']:.1e} |")
+        lines.append(table_row(
+            name, nm, dofs, *(f"{ba[k]['time_per_step_us']:,.0f}" for k in ("before", "after")),
+            f"{ba['speedup']:.2f}×", "yes" if ba["same_iterations"] else "NO",
+            *(f"{ba[f'max_rel_{k}_difference']:.1e}" for k in ("q", "multiplier"))))
     return "\n".join(lines)
 
 
 def table(rows: list[dict]) -> str:
-    lines = ["| pendulum | Nm | selection | reduced DOFs | cond(Mr) | steps/s | µs/step "
-             "| Newton it. | baseline steps/s | baseline it. | speedup |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = table_head("pendulum", "Nm", "selection", "reduced DOFs", "cond(Mr)", "steps/s",
+                       "µs/step", "Newton it.", "baseline steps/s", "baseline it.", "speedup")
     for r in rows:
         if "failed" in r:
             lines.append(f"| {r['material']} | {r['modes']} | {r['selection']} | — | — | "
@@ -327,11 +311,7 @@ def table(rows: list[dict]) -> str:
 
 
 def plot(rows: list[dict], path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(7.5, 4.8))
     for material, marker in (("soft", "o"), ("stiff", "s")):
         for method, style in (("rotated", "-"), ("assembled", "--")):
@@ -347,8 +327,7 @@ def plot(rows: list[dict], path: Path) -> None:
     ax.set_title("GCMS flexible pendulum, one core")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path)
 
 
 if __name__ == "__main__":

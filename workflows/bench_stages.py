@@ -23,17 +23,16 @@ writes OUT.json and prints the table recorded in README.md.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import subprocess
 import sys
-import tempfile
 import time
 import tomllib
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
+from common import REPO, checkout, parser, table_head, temporary_folder, write_record
+
 STAGES = ("mesh", "modes", "mode_shapes", "reduction", "simulation")
 SOLVE_TIMINGS = ("geometry_and_mesh", "assembly", "shift_estimate", "eigensolve",
                  "inertia_check", "verification")
@@ -68,13 +67,12 @@ def variant(tmp: Path, name: str, old: str, new: str) -> Path:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("docs/bench_stages"))
-    parser.add_argument("--before", type=Path, default=None)
-    args = parser.parse_args()
+    options = parser(__doc__, out="docs/bench_stages")
+    options.add_argument("--before", type=Path, default=None)
+    args = options.parse_args()
+    checkout(options, args.before)
     rows: dict[str, dict] = {}
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp = Path(tmp)
+    with temporary_folder() as tmp:
         rows["cold"] = gcms_run(REPO, None, tmp / "cold",
                                 env={"XDG_CACHE_HOME": str(tmp / "empty_cache")})
         out = tmp / "warm"
@@ -94,14 +92,12 @@ def main() -> None:
         if args.before is not None:
             for label, code in (("before, warm", args.before), ("warm, again", REPO)):
                 rows[label] = gcms_run(code, None, tmp / label.replace(" ", "_").replace(",", ""))
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    Path(f"{args.out}.json").write_text(json.dumps(rows, indent=1))
+    write_record(Path(f"{args.out}.json"), rows)
     print(table(rows))
 
 
 def table(rows: dict[str, dict]) -> str:
-    lines = ["| run | wall s | " + " | ".join(STAGES) + " | --out MB |",
-             "|---|---|" + "---|" * len(STAGES) + "---|"]
+    lines = table_head("run", "wall s", *STAGES, "--out MB")
     for name, r in rows.items():
         cells = []
         for stage in STAGES:
@@ -110,8 +106,7 @@ def table(rows: dict[str, dict]) -> str:
                          "reused" if s["status"] == "reused" else f"{s['seconds']:.1f}")
         lines.append(f"| {name} | {r['wall_s']:.1f} | " + " | ".join(cells)
                      + f" | {r['output_mb']:.1f} |")
-    lines += ["", "| run (modes computed) | " + " | ".join(SOLVE_TIMINGS) + " |",
-              "|---|" + "---|" * len(SOLVE_TIMINGS)]
+    lines += ["", *table_head("run (modes computed)", *SOLVE_TIMINGS)]
     for name, r in rows.items():
         if not r["stages"] or r["stages"].get("modes", {}).get("status") == "computed":
             lines.append(f"| {name} | " + " | ".join(

@@ -24,18 +24,16 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before NumPy: one core
 
-import argparse
-import json
 import math
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
+from common import REPO, log, parser, temporary_folder, write_record
+
 sys.path.insert(0, str(REPO))
 
 from gcms_fenicsx.dynamics.body import Body, body_from_reduced  # noqa: E402
@@ -66,10 +64,6 @@ SPIN_AXIS = np.array([0.3, 1.0, 0.5])
 SPIN_RAD_S = 60.0
 VIBRATION_CASES = ((1, 0.0), (1, 1.0), (2, 0.0), (2, 1.0))   # (mode, spin in Hz)
 PERIODS, STEPS_PER_PERIOD = 50, 80
-
-
-def log(message: str) -> None:
-    print(message, file=sys.stderr, flush=True)
 
 
 def reduced_beam(folder: Path) -> ReducedModel:
@@ -142,13 +136,11 @@ def vibration(model: ReducedModel, body: Body) -> list[dict]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=REPO / "docs" / "conservation.json")
-    args = parser.parse_args()
+    args = parser(__doc__, out=REPO / "docs" / "conservation.json").parse_args()
     t0 = time.perf_counter()
-    with tempfile.TemporaryDirectory() as tmp:
+    with temporary_folder() as tmp:
         log("reducing the beam (gcms reduce)")
-        model = reduced_beam(Path(tmp))
+        model = reduced_beam(tmp)
     body = body_from_reduced(model)
     log("spinning free body, three time steps")
     spin = spinning(body)
@@ -173,12 +165,11 @@ def main() -> None:
         print(f"{r['mode']:4d} {r['spin_hz']:7.1f} {r['full_model_hz']:11.4f} "
               f"{r['reduced_hz']:11.4f} {r['fft_peak_hz']:11.4f} {r['rel_error']:11.2e} "
               f"{r['trapezoidal_hz']:12.4f} {r['rel_error_vs_trapezoidal']:13.2e}")
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps({
+    write_record(args.out, {
         "body": {"study": STUDY, "coordinates": body.dofs, "mass_kg": body.total_mass_kg,
                  "max_rel_frequency_error_pruning": model.selection["max_rel_frequency_error"]},
         "spinning": spin, "vibration": vib,
-        "wall_time_s": time.perf_counter() - t0}, indent=2) + "\n")
+        "wall_time_s": time.perf_counter() - t0}, indent=2, newline=True)
     log(f"wrote {args.out} in {time.perf_counter() - t0:.1f} s")
 
 

@@ -12,7 +12,7 @@ and gas forces rise in smoothly, so the 50 µs step resolves its outputs. Two co
   against the full model's; with attachment modes the full model's response lies in the
   basis (docs/design.md §3.7) and they agree to round-off;
 - dynamics: the nose's whirl, the bearing forces and the drive torque over the run
-  (``auto_modes.outputs``), max_t |y − y_ref| / max_t |y_ref|, over the whole run and from
+  (``common.crankshaft.outputs``), max_t |y − y_ref| / max_t |y_ref|, over the whole run and from
   1 ms on (``START_S``), for Nm = 5, 10, 20 with and
   without attachment modes, in the full and the rotor basis, the static shapes of Nm = 10
   with attachment modes in both (``[basis] shapes = "static"``: the held body's static
@@ -32,21 +32,17 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before NumPy
 
-import argparse
 import json
-import logging
-import sys
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
-from auto_modes import OUTPUTS, START_S, after_start, errors, outputs  # noqa: E402
-from pareto import crankshaft_outputs, on_times, run_chain, shapes_of, study  # noqa: E402
+from common import log, parser, pyplot, quiet, save_figure, table_head, temporary_folder
+from common import write_record
+from common.crankshaft import (BASES, OUTPUTS, START_S, after_start, crankshaft_outputs, errors,
+                               on_times, outputs, run_chain, shapes_of, study)
 
 MODE_COUNTS = (5, 10, 20)
 #: the Nm whose model also runs on its static shapes (with attachment modes they are the same
@@ -56,10 +52,6 @@ NOSE = "end_x0"
 #: pareto's crankshaft reference: the finest and richest run of its sweep
 PARETO_REFERENCE = {"mesh_size": None, "modes": 20, "attachment": "scene", "tolerance": 1e-6,
                     "time_step": 2.5e-5}
-
-
-def log(message: str) -> None:
-    print(message, file=sys.stderr, flush=True)
 
 
 def crankshaft(s: dict) -> dict:
@@ -132,18 +124,16 @@ def statics(full, exact: dict[str, Any], reduced, cfg) -> dict[str, dict[str, fl
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("docs/crankshaft_reference"))
-    parser.add_argument("--half-step", action="store_true")
-    args = parser.parse_args()
-    logging.disable(logging.INFO)
+    options = parser(__doc__, out="docs/crankshaft_reference")
+    options.add_argument("--half-step", action="store_true")
+    args = options.parse_args()
+    quiet()
     from gcms_fenicsx.config.study import parse_config
     from gcms_fenicsx.dynamics.body import body_from_reduced
 
     rows: list[dict] = []
     curves: dict[str, Any] = {}
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp = Path(tmp)
+    with temporary_folder() as tmp:
         base = {"mesh_size": None, "modes": 1, "attachment": "none", "tolerance": 1e-6,
                 "time_step": 5e-5}
         cfg = parse_config(crankshaft(base))
@@ -166,7 +156,7 @@ def main() -> None:
             cfg, reduced, offline = run_chain(crankshaft(s), tmp)
             static = statics(full, exact, body_from_reduced(reduced), cfg)
             kinds = [(shapes, patterns, basis) for shapes, patterns in shapes_of(cfg).items()
-                     for basis in ("full", "rotor")
+                     for basis in BASES
                      if (s is not PARETO_REFERENCE or (basis, shapes) == ("full", "modes"))
                      and (shapes == "modes" or s["modes"] == STATIC_MODES)]
             for shapes, patterns, basis in kinds:
@@ -184,8 +174,7 @@ def main() -> None:
                        f"{s['time_step']:g}"] = out
                 log(json.dumps({k: v for k, v in row.items() if k != "static"}))
     result["rows"] = rows
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.with_suffix(".json").write_text(json.dumps(result, indent=1))
+    write_record(args.out.with_suffix(".json"), result)
     plot(curves, args.out.with_suffix(".png"))
     print(tables(result))
 
@@ -193,9 +182,8 @@ def main() -> None:
 def tables(result: dict) -> str:
     """The dynamics table (per row: coordinates, the three outputs' errors, online seconds)
     and the statics table (per reduced model)."""
-    lines = ["| Nm | attachment | shapes | basis | h µs | coordinates | nose whirl | "
-             f"bearing forces | drive torque | the three from {START_S * 1e3:g} ms on | "
-             "simulation s |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = table_head("Nm", "attachment", "shapes", "basis", "h µs", "coordinates", *OUTPUTS,
+                       f"the three from {START_S * 1e3:g} ms on", "simulation s")
     for r in result["rows"]:
         e, late = r["error"], r["error_after_start"]
         lines.append(f"| {r['modes']} | {r['attachment']} | {r['shapes']} | {r['basis']} | "
@@ -203,8 +191,8 @@ def tables(result: dict) -> str:
                      + " | ".join(f"{100 * e[k]:.2f} %" for k in OUTPUTS) + " | "
                      + ", ".join(f"{100 * late[k]:.2f}" for k in OUTPUTS) + " %"
                      + f" | {r['online_s']:.2f} |")
-    lines += ["", "| Nm | attachment | static nose (scene loads) | reactions | "
-              "static nose (spin) | reactions |", "|---|---|---|---|---|---|"]
+    lines += ["", *table_head("Nm", "attachment", "static nose (scene loads)", "reactions",
+                              "static nose (spin)", "reactions")]
     for r in result["rows"]:
         if r["basis"] != "full" or r["time_step"] != 5e-5 or r["shapes"] != "modes":
             continue
@@ -218,10 +206,7 @@ def plot(curves: dict, path: Path) -> None:
     """The nose's whirl (z) and the front bearing's vertical force over time: (a), the
     full basis at Nm = 10 and 20 with attachment modes and at Nm = 10 without, and the rotor
     basis on the static shapes."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     t = curves["time"] * 1e3
     fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
     shown = [("a", "reference (a), full model", "k", 2.0),
@@ -238,9 +223,7 @@ def plot(curves: dict, path: Path) -> None:
     axes[1].set_xlabel("time (ms)")
     axes[0].legend(fontsize=8)
     axes[0].set_title("Default crankshaft: reduced models against the full model")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path)
 
 
 if __name__ == "__main__":

@@ -36,17 +36,15 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before NumPy: timings of one core
 
-import argparse
-import json
-import logging
-import sys
-import tempfile
 import time
 from dataclasses import replace
 from functools import partial
 from pathlib import Path
 
 import numpy as np
+
+from common import fmt, log, parser, pyplot, quiet, save_figure, table_head, temporary_folder
+from common import write_record
 
 MODE_COUNTS = (5, 10, 15, 20, 30)
 #: Eigenmode counts of the SVK rows (with and without attachment modes; the coefficients of
@@ -60,10 +58,6 @@ SWEEP_E_PA = (3e9, 1e9, 3e8)       # with the study's 1e8 from the main table
 SVK_TOLERANCE = 1e-8
 
 
-def log(message: str) -> None:
-    print(message, file=sys.stderr, flush=True)
-
-
 def setup(quick: bool):
     """Mesh, assembly, the free-free modes (largest Nm), node groups: everything shared."""
     from gcms_fenicsx import pipeline
@@ -74,8 +68,8 @@ def setup(quick: bool):
     study = dict(pendulum.STUDY, modes={"count": max(MODE_COUNTS)})
     cfg = parse_config(dict(study, basis={"attachment": "none"}), "flexible pendulum")
     attached = parse_config(dict(study, basis={"attachment": "scene"}), "flexible pendulum")
-    with tempfile.TemporaryDirectory() as tmp:
-        body_mesh = pipeline.body_mesh(pipeline.mesh_stage(cfg.geometry, cfg.mesh, Path(tmp)))
+    with temporary_folder() as tmp:
+        body_mesh = pipeline.body_mesh(pipeline.mesh_stage(cfg.geometry, cfg.mesh, tmp))
     t0 = time.perf_counter()
     model = pipeline.assembly_stage(body_mesh.mesh, cfg.material).model
     modes = {"none": pipeline.modes_stage(model, cfg.modes),
@@ -216,7 +210,7 @@ def study(damping: float, model, full, rigid, cases: list[dict], scene) -> dict:
             out["curves"][f"gcms10_{case['elasticity']}"] = d.tolist()
         log(f"  {case['elasticity']}, Nm = {nm:2d}, attachment {case['attachment']}, tolerance "
             f"{row['tolerance']}: {body.dofs} DOFs, error vs (a) {row['error_vs_a']:.2%}, "
-            f"vs (b) {_pct(row['error_vs_b'])}, {row['steps_per_second']:.0f} steps/s")
+            f"vs (b) {fmt(row['error_vs_b'])}, {row['steps_per_second']:.0f} steps/s")
     return out
 
 
@@ -261,19 +255,14 @@ def stiffness_sweep(cfg, body_mesh, groups, scene, quick: bool) -> list[dict]:
 
 
 def sweep_table(rows: list[dict]) -> str:
-    lines = ["| E GPa | Λ = ρgL³/(Er²) | tension N L²/EI | tip deviation / L | (a) vs (b) "
-             "| GCMS Nm=10 vs (a) | vs (b) | GCMS Nm=20 vs (a) | vs (b) |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    lines = table_head("E GPa", "Λ = ρgL³/(Er²)", "tension N L²/EI", "tip deviation / L",
+                       "(a) vs (b)", "GCMS Nm=10 vs (a)", "vs (b)", "GCMS Nm=20 vs (a)", "vs (b)")
     for r in rows:
         lines.append(f"| {r['E_pa'] / 1e9:g} | {r['lambda']:.3f} | {r['tension_parameter']:.2f} "
                      f"| {r['max_deviation_over_length']:.3%} | {r['a_vs_b']:.2%} "
                      f"| {r['gcms10_vs_a']:.2%} | {r['gcms10_vs_b']:.2%} "
                      f"| {r['gcms20_vs_a']:.2%} | {r['gcms20_vs_b']:.2%} |")
     return "\n".join(lines)
-
-
-def _pct(value: float | None) -> str:
-    return "" if value is None else f"{value:.2%}"
 
 
 def table(result: dict) -> str:
@@ -285,26 +274,22 @@ def table(result: dict) -> str:
     lines = [f"damping β = {result['damping_beta_s']:g} s: tip deviation up to "
              f"{dev['a']:.2%} of L (a){b_text}; references: {times} "
              f"({result['full_dofs']:,} DOFs)", "",
-             "| elasticity | Nm | attachment | tolerance | reduced DOFs | pruning error "
-             "| error vs (a) | error vs (b) | GCMS s | steps/s | speedup vs (a) | speedup vs (b) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             *table_head("elasticity", "Nm", "attachment", "tolerance", "reduced DOFs",
+                         "pruning error", "error vs (a)", "error vs (b)", "GCMS s", "steps/s",
+                         "speedup vs (a)", "speedup vs (b)")]
     for r in result["gcms"]:
         tol = r["tolerance"] if isinstance(r["tolerance"], str) else f"{r['tolerance']:.0e}"
         speedup_b = "" if r["speedup_vs_b"] is None else f"{r['speedup_vs_b']:.0f}×"
         lines.append(f"| {r['elasticity']} | {r['modes']} | {r['attachment']} | {tol} "
                      f"| {r['reduced_dofs']} | {r['pruning_error']:.1e} "
-                     f"| {r['error_vs_a']:.2%} | {_pct(r['error_vs_b'])} | {r['wall_s']:.2f} "
+                     f"| {r['error_vs_a']:.2%} | {fmt(r['error_vs_b'])} | {r['wall_s']:.2f} "
                      f"| {r['steps_per_second']:.0f} | {r['speedup_vs_a']:.0f}× "
                      f"| {speedup_b} |")
     return "\n".join(lines)
 
 
 def plot(results: list[dict], path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     fig, axes = plt.subplots(len(results), 2, figsize=(13, 4.4 * len(results)), squeeze=False)
     for (curve_ax, err_ax), res in zip(axes, results):
         c = res["curves"]
@@ -342,24 +327,22 @@ def plot(results: list[dict], path: Path) -> None:
         err_ax.set_title("GCMS error against its own law's reference (default selection)")
         err_ax.legend()
         err_ax.grid(alpha=0.3, which="both")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("docs/flexible_pendulum"))
-    parser.add_argument("--quick", action="store_true", help="0.3 s, fewer cases (smoke run)")
-    parser.add_argument("--sweep-only", action="store_true", help="only the stiffness sweep")
-    args = parser.parse_args()
-    logging.disable(logging.INFO)
+    options = parser(__doc__, out="docs/flexible_pendulum",
+                     quick="0.3 s, fewer cases (smoke run)")
+    options.add_argument("--sweep-only", action="store_true", help="only the stiffness sweep")
+    args = options.parse_args()
+    quiet()
     from gcms_fenicsx.references import pendulum
     from gcms_fenicsx.references.full_order import full_order_body
 
     cfg, body_mesh, model, modes, groups, scene, offline_s = setup(args.quick)
     if args.sweep_only:
         rows = stiffness_sweep(cfg, body_mesh, groups, scene, args.quick)
-        Path(f"{args.out}_sweep.json").write_text(json.dumps(rows, indent=1))
+        write_record(Path(f"{args.out}_sweep.json"), {"sweep": rows})
         print(sweep_table(rows))
         return
     log(f"setup: {model.ndofs} DOFs, {len(modes['none'].elastic_eigenvalues)} modes (and "
@@ -371,9 +354,7 @@ def main() -> None:
     for r in results:
         r["eigensolve_and_assembly_s"] = offline_s
     sweep = stiffness_sweep(cfg, body_mesh, groups, scene, args.quick)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    Path(f"{args.out}.json").write_text(json.dumps({"studies": results, "sweep": sweep},
-                                                   indent=1))
+    write_record(Path(f"{args.out}.json"), {"studies": results, "sweep": sweep})
     plot(results, Path(f"{args.out}.png"))
     for r in results:
         print(table(r))

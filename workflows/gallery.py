@@ -9,20 +9,18 @@ named surface groups coloured: end faces, main journals and crank pins.
 """
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import gmsh
-import matplotlib
+import numpy as np
+from common import REPO, parser, pyplot, save_figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+plt = pyplot()
 from matplotlib.patches import Patch  # noqa: E402
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
-from geometry import SECTIONS, parse_mesh  # noqa: E402
-from gcms_fenicsx.config.geometry import parse_geometry
+from gcms_fenicsx.config.geometry import parse_geometry, parse_mesh  # noqa: E402
+from geometry import SECTIONS  # noqa: E402
 from geometry.meshing import add_body, gmsh_session, set_mesh_sizes  # noqa: E402
 
 #: Example dimensions (m) of each section, drawn as a beam 0.1 m long.
@@ -88,10 +86,7 @@ def draw(ax, triangles: np.ndarray, colours: list, title: str, view: tuple[float
 
 
 def main(argv: list[str] | None = None) -> Path:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path,
-                        default=Path(__file__).resolve().parents[1] / "docs" / "gallery.png")
-    out = parser.parse_args(argv).out
+    out = parser(__doc__, out=REPO / "docs" / "gallery.png").parse_args(argv).out
 
     fig = plt.figure(figsize=(18, 13))
     grid = fig.add_gridspec(3, 5, height_ratios=(1, 1, 1.8))
@@ -112,9 +107,7 @@ def main(argv: list[str] | None = None) -> Path:
     fig.suptitle("geometry: beam sections (0.1 m long, x = 0 end in front) and crankshaft",
                  fontsize=14)
     fig.subplots_adjust(left=0.01, right=0.99, top=0.94, bottom=0.04, wspace=0.02, hspace=0.08)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
+    save_figure(fig, out, tight=False)
     return out
 
 

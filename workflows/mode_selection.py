@@ -14,19 +14,18 @@ the default selection (preconditioned: M-orthonormalised basis) and the plain on
 
     python workflows/mode_selection.py [--out docs/mode_selection] [--quick]
 
-writes OUT.json and OUT.png and prints the Markdown table of README.md.
+writes OUT.json (``cases``, one entry a case) and OUT.png and prints the Markdown table of
+README.md.
 """
 from __future__ import annotations
 
-import argparse
-import json
-import logging
-import sys
-import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+
+from common import log, parser, pyplot, quiet, save_figure, table_head, temporary_folder
+from common import table_row, write_record
 
 BEAMS = {
     "square": {"side": 0.05},
@@ -104,45 +103,36 @@ def run_case(name: str, table: dict, folder: Path) -> dict:
 
 
 def table(results: list[dict]) -> str:
-    head = ("| case | Nm | DOFs | columns before → after | cond(Φ) before → after "
-            "| cond(Mr) before → after | plain: cond(Mr), error | pruning error "
-            "| selection + reduction s | / eigen-solve |")
-    lines = [head, "|" + "---|" * 10]
+    lines = table_head("case", "Nm", "DOFs", "columns before → after", "cond(Φ) before → after",
+                       "cond(Mr) before → after", "plain: cond(Mr), error", "pruning error",
+                       "selection + reduction s", "/ eigen-solve")
     for r in results:
         for nm, row in r["by_modes"].items():
             d, p = row["default"], row["plain"]
             t = d["timings_s"]["selection_and_reduction"]
-            lines.append(
-                f"| {r['case']} | {nm} | {r['ndofs']:,} | {d['columns_before']} → "
-                f"{d['columns_after']} | {d['cond_phi_before']:.1e} → {d['cond_phi_after']:.1e} "
-                f"| {d['cond_mr_before']:.1e} → {d['cond_mr_after']:.1e} "
-                f"| {p['cond_mr_after']:.1e}, {p['max_rel_frequency_error']:.0e} "
-                f"| {d['max_rel_frequency_error']:.1e} "
-                f"| {t:.2f} | {t / r['eigensolve_s']:.1%} |")
+            lines.append(table_row(
+                r["case"], nm, f"{r['ndofs']:,}", f"{d['columns_before']} → {d['columns_after']}",
+                *(f"{d[f'{k}_before']:.1e} → {d[f'{k}_after']:.1e}" for k in ("cond_phi",
+                                                                               "cond_mr")),
+                f"{p['cond_mr_after']:.1e}, {p['max_rel_frequency_error']:.0e}",
+                f"{d['max_rel_frequency_error']:.1e}", f"{t:.2f}", f"{t / r['eigensolve_s']:.1%}"))
     return "\n".join(lines)
 
 
 def sweep_table(results: list[dict]) -> str:
-    lines = ["| case (Nm = 10) | tolerance | columns after | cond(Φ) after | cond(Mr) after "
-             "| pruning error |", "|---|---|---|---|---|---|"]
+    lines = table_head("case (Nm = 10)", "tolerance", "columns after", "cond(Φ) after",
+                       "cond(Mr) after", "pruning error")
     for r in results:
         for s in r["sweep"]:
-            if "error" in s:
-                lines.append(f"| {r['case']} | {s['tolerance']:.0e} | failed: {s['error'][:60]} "
-                             "| | | |")
-            else:
-                lines.append(f"| {r['case']} | {s['tolerance']:.0e} | {s['columns_after']} "
-                             f"| {s['cond_phi_after']:.1e} | {s['cond_mr_after']:.1e} "
-                             f"| {s['max_rel_frequency_error']:.1e} |")
+            cells = ((f"failed: {s['error'][:60]} | | |",) if "error" in s else
+                     (s["columns_after"], *(f"{s[k]:.1e}" for k in (
+                         "cond_phi_after", "cond_mr_after", "max_rel_frequency_error"))))
+            lines.append(table_row(r["case"], f"{s['tolerance']:.0e}", *cells))
     return "\n".join(lines)
 
 
 def plot(results: list[dict], path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     shown = [r for r in results if "cosine" in r]
     fig, axes = plt.subplots(len(shown), 2, figsize=(12, 5.2 * len(shown)), squeeze=False)
     for (ax_c, ax_s), r in zip(axes, shown):
@@ -160,25 +150,20 @@ def plot(results: list[dict], path: Path) -> None:
         ax_s.set_xlabel("index")
         ax_s.grid(True, which="both", alpha=0.3)
         ax_s.legend()
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path)
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("docs/mode_selection"))
-    parser.add_argument("--quick", action="store_true", help="two beams only (a smoke run)")
-    args = parser.parse_args()
-    logging.disable(logging.INFO)
+    args = parser(__doc__, out="docs/mode_selection",
+                  quick="two beams only (a smoke run)").parse_args()
+    quiet()
     results = []
-    with tempfile.TemporaryDirectory() as tmp:
+    with temporary_folder() as tmp:
         for name, table_ in studies(args.quick).items():
             t0 = time.perf_counter()
-            results.append(run_case(name, table_, Path(tmp)))
-            print(f"{name}: {results[-1]['ndofs']} DOFs, {time.perf_counter() - t0:.0f} s",
-                  file=sys.stderr, flush=True)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    Path(f"{args.out}.json").write_text(json.dumps(results, indent=1))
+            results.append(run_case(name, table_, tmp))
+            log(f"{name}: {results[-1]['ndofs']} DOFs, {time.perf_counter() - t0:.0f} s")
+    write_record(Path(f"{args.out}.json"), {"cases": results})
     plot(results, Path(f"{args.out}.png"))
     print(table(results))
     print()

@@ -10,7 +10,7 @@ time divided by the reference's largest value.
 - pendulum: the tip's deviation from the rigid pendulum over the first half period, against
   reference (a), the full-order co-rotated model on the study's mesh (docs/flexible_pendulum.md);
 - crankshaft: the nose's whirl, the bearing forces and the drive torque
-  (``auto_modes.outputs``), each against the finest and richest run of the sweep (the
+  (``common.crankshaft.outputs``), each against the finest and richest run of the sweep (the
   study's mesh, Nm = 20, attachment modes, half the time step, full basis), reported
   separately and as their maximum; that reference's own convergence is stated by comparing
   it with the same run at the study's time step (``reference_convergence``). Runs are
@@ -41,22 +41,18 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before NumPy: timings of one core
 
-import argparse
 import itertools
 import json
-import logging
-import sys
-import tempfile
 import time
-import tomllib
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
-from auto_modes import OUTPUTS, errors, outputs  # noqa: E402
+from common import log, parser, pyplot, quiet, save_figure, table_head, temporary_folder
+from common import table_row, write_record
+from common.crankshaft import (BASES, OUTPUTS, crankshaft_outputs, errors, on_times, run_chain,
+                               shapes_of, study)
 
 TARGETS = (0.1, 0.01, 0.001)
 
@@ -75,34 +71,6 @@ def sweep(case: str, quick: bool) -> list[dict[str, Any]]:
     return [{"mesh_size": size, "modes": nm, "attachment": att, "tolerance": tol, "time_step": h}
             for size, nm, att, tol, h in itertools.product(sizes, counts, ("none", "scene"),
                                                            tolerances, steps)]
-
-
-def study(case: str, s: dict[str, Any]) -> dict:
-    """The study tables of one run."""
-    from gcms_fenicsx.config.study import default_config_text
-    from gcms_fenicsx.references import pendulum
-
-    raw = dict(pendulum.STUDY) if case == "pendulum" else tomllib.loads(default_config_text())
-    mesh = dict(raw.get("mesh", {}))
-    if s["mesh_size"] is not None:
-        mesh["size"] = s["mesh_size"]
-    return dict(raw, mesh=mesh, modes={"count": s["modes"]},
-                basis={"attachment": s["attachment"]},
-                selection={"svd_tolerance": s["tolerance"], "cosine_tolerance": 1e-12},
-                scene=dict(raw["scene"], time_step=s["time_step"]))
-
-
-def run_chain(raw: dict, folder: Path) -> tuple[Any, Any, float]:
-    """Mesh to reduced model through the pipeline's stages: (config, reduced model, seconds)."""
-    from gcms_fenicsx import pipeline
-    from gcms_fenicsx.config.study import parse_config
-
-    cfg = parse_config(raw)
-    t0 = time.perf_counter()
-    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, folder)
-    basis = pipeline.basis_stage(chain.assembly.model, chain.modes, chain.body)
-    reduced = pipeline.reduction_stage(basis, cfg.selection)
-    return cfg, reduced, time.perf_counter() - t0
 
 
 def pendulum_reference(folder: Path) -> dict:
@@ -145,54 +113,12 @@ def pendulum_error(reduced, cfg, ref: dict, basis: str, static=None
             summary["reduced_dofs"])
 
 
-def crankshaft_outputs(reduced, cfg, folder: Path, tag: str, basis: str = "full",
-                       static=None) -> tuple[dict, float, np.ndarray, int]:
-    """(outputs, simulation seconds, recorded times, coordinates) of one run in ``basis``
-    (on the static shapes of the scene's ``static`` patterns, if given)."""
-    from gcms_fenicsx.dynamics.results import read_results
-    from gcms_fenicsx.dynamics.simulate import simulate_to_file
-
-    path = folder / f"{tag}.h5"
-    t0 = time.perf_counter()
-    summary = simulate_to_file(reduced, cfg.scene, path, basis=basis,
-                               attachment=cfg.modes.attachment or (), static=static)
-    online = time.perf_counter() - t0
-    results = read_results(path)
-    return outputs(results), online, results.time, summary["reduced_dofs"]
-
-
-def on_times(out: dict, t: np.ndarray, t_ref: np.ndarray) -> dict:
-    """Outputs recorded at times ``t`` interpolated to ``t_ref``."""
-    return {k: np.stack([np.interp(t_ref, t, v[:, j]) for j in range(v.shape[1])], axis=1)
-            for k, v in out.items()}
-
-
-BASES = ("full", "rotor")
-
-
-def shapes_of(cfg) -> dict[str, Any]:
-    """The shapes a reduced model runs on: its modes (None), and with attachment modes (which
-    make the static shapes exact) the held body's static shapes, by the scene's patterns."""
-    from dataclasses import replace
-
-    from gcms_fenicsx.config.basis import scene_patterns
-
-    if not cfg.modes.attachment:
-        return {"modes": None}
-    return {"modes": None,
-            "static": scene_patterns(replace(cfg.basis, shapes="static"), cfg.scene)}
-
-
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true")
-    parser.add_argument("--out", type=Path, default=Path("docs"))
-    args = parser.parse_args()
-    logging.disable(logging.INFO)
+    args = parser(__doc__, out="docs", quick="").parse_args()
+    quiet()
     rows: list[dict] = []
     convergence: dict[str, Any] = {}
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp = Path(tmp)
+    with temporary_folder() as tmp:
         ref = pendulum_reference(tmp)
         for s in sweep("pendulum", args.quick):
             cfg, reduced, offline = run_chain(study("pendulum", s), tmp)
@@ -200,11 +126,9 @@ def main() -> None:
                 error, online, dofs = pendulum_error(reduced, cfg, ref, basis, static)
                 rows.append(_row("pendulum", cfg, dict(s, shapes=shapes), basis, dofs, error,
                                  offline, online))
-                print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
+                log(json.dumps(rows[-1]))
         rows += crankshaft_rows(args.quick, tmp, convergence)
-    args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "pareto.json").write_text(json.dumps(
-        {"rows": rows, "reference_convergence": convergence}, indent=1))
+    write_record(args.out / "pareto.json", {"rows": rows, "reference_convergence": convergence})
     plot(rows, args.out / "pareto.png")
     print(cheapest_table(rows))
     print(basis_table(rows))
@@ -231,7 +155,7 @@ def crankshaft_rows(quick: bool, tmp: Path, convergence: dict) -> list[dict]:
             e = errors(out, on_times(reference, t_ref, t))
             rows.append(dict(_row(case, cfg, dict(s, shapes=shapes), basis, dofs, e["maximum"],
                                   offline, online), **{name: e[name] for name in OUTPUTS}))
-            print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
+            log(json.dumps(rows[-1]))
     return rows
 
 
@@ -247,9 +171,8 @@ def _row(case: str, cfg, s: dict, basis: str, coordinates: int, error: float, of
 
 def cheapest_table(rows: list[dict]) -> str:
     """Per case and target error, the run of least total time that meets it."""
-    lines = ["| case | error ≤ | settings (mesh size, Nm, attachment, shapes, basis, "
-             "tolerance, h) | "
-             "coordinates | error | total s |", "|---|---|---|---|---|---|"]
+    lines = table_head("case", "error ≤", "settings (mesh size, Nm, attachment, shapes, basis, "
+                       "tolerance, h)", "coordinates", "error", "total s")
     for case in dict.fromkeys(r["case"] for r in rows):
         for target in TARGETS:
             meeting = [r for r in rows if r["case"] == case and r["error"] <= target]
@@ -257,19 +180,18 @@ def cheapest_table(rows: list[dict]) -> str:
                 lines.append(f"| {case} | {target:g} | none of the sweep | | | |")
                 continue
             r = min(meeting, key=lambda r: r["total_s"])
-            lines.append(f"| {case} | {target:g} | {r['mesh_size']:g} m, {r['modes']}, "
-                         f"{r['attachment']}, {r['shapes']}, {r['basis']}, "
-                         f"{r['tolerance']:g}, "
-                         f"{r['time_step']:g} s | {r['coordinates']} | {r['error']:.2e} | "
-                         f"{r['total_s']:.1f} |")
+            settings = (f"{r['mesh_size']:g} m, {r['modes']}, {r['attachment']}, {r['shapes']}, "
+                        f"{r['basis']}, {r['tolerance']:g}, {r['time_step']:g} s")
+            lines.append(table_row(case, f"{target:g}", settings, r["coordinates"],
+                                   f"{r['error']:.2e}", f"{r['total_s']:.1f}"))
     return "\n".join(lines)
 
 
 def basis_table(rows: list[dict]) -> str:
     """Per case, the rotor basis against the full one at the same settings: the median and
     range of the error ratio and of the online-time ratio (full / rotor)."""
-    lines = ["| case | runs | coordinates full → rotor | error rotor / full (median, range) | "
-             "online full / rotor (median, range) |", "|---|---|---|---|---|"]
+    lines = table_head("case", "runs", "coordinates full → rotor",
+                       "error rotor / full (median, range)", "online full / rotor (median, range)")
     for case in dict.fromkeys(r["case"] for r in rows):
         key = ("mesh_size", "modes", "attachment", "shapes", "tolerance", "time_step")
         full = {tuple(r[k] for k in key): r for r in rows
@@ -279,17 +201,14 @@ def basis_table(rows: list[dict]) -> str:
         err = np.array([b["error"] / a["error"] for a, b in pairs])
         speed = np.array([a["online_s"] / b["online_s"] for a, b in pairs])
         dofs = sorted({(a["coordinates"], b["coordinates"]) for a, b in pairs})
-        lines.append(f"| {case} | {len(pairs)} | {dofs[0][0]} → {dofs[0][1]} … {dofs[-1][0]} → "
-                     f"{dofs[-1][1]} | {np.median(err):.2f} ({err.min():.2f}–{err.max():.2f}) | "
-                     f"{np.median(speed):.2f} ({speed.min():.2f}–{speed.max():.2f}) |")
+        spread = [f"{np.median(x):.2f} ({x.min():.2f}–{x.max():.2f})" for x in (err, speed)]
+        lines.append(table_row(case, len(pairs), f"{dofs[0][0]} → {dofs[0][1]} … "
+                               f"{dofs[-1][0]} → {dofs[-1][1]}", *spread))
     return "\n".join(lines)
 
 
 def plot(rows: list[dict], path: Path) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     cases = list(dict.fromkeys(r["case"] for r in rows))
     fig, axes = plt.subplots(len(cases), 2, figsize=(11, 4.2 * len(cases)), squeeze=False)
     for i, case in enumerate(cases):
@@ -311,9 +230,7 @@ def plot(rows: list[dict], path: Path) -> None:
             ax.set_title(case)
             ax.grid(alpha=0.3, which="both")
             ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path)
 
 
 def _front(points: list[tuple[float, float]]) -> list[tuple[float, float]]:

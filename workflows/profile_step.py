@@ -26,14 +26,14 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before NumPy: one core
 
-import argparse
 import json
 import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
+from common import REPO, checkout, fmt, parser, table_head, temporary_folder, worker_options
+from common import write_record
+
 MODE_COUNTS = (5, 10)
 #: cProfile entries whose cumulative time is a stage's, by (file name end, function name).
 STAGES = {"elastic forces": ("corotated.py", "elastic_state"),
@@ -185,8 +185,8 @@ def stage_timings(model_path: Path) -> dict:
 
 def profile_table(profiles: dict) -> str:
     """cProfile summary per case and code."""
-    lines = ["| case | code | µs/step | Newton it. | NumPy calls/step | Python calls/step | "
-             + " | ".join(STAGES) + " |", "|---|---|---|---|---|---|" + "---|" * len(STAGES)]
+    lines = table_head("case", "code", "µs/step", "Newton it.", "NumPy calls/step",
+                       "Python calls/step", *STAGES)
     for case, by_code in profiles.items():
         for code, p in by_code.items():
             if "failed" in p:
@@ -205,18 +205,15 @@ def stage_table(case: str, timing: dict) -> str:
     timer per call included); the recorder in the run is the simulation's µs per step minus
     the bare stepping loop's."""
     lines = [f"{case}: {timing['time_per_step_us']:.0f} µs per step", "",
-             "| stage | µs per call, alone | calls per step | µs per step, alone | "
-             "µs per step, in the run | share of the step |", "|---|---|---|---|---|---|"]
-
-    def cell(x, digits=1):
-        return "" if x is None else f"{x:.{digits}f}"
+             *table_head("stage", "µs per call, alone", "calls per step", "µs per step, alone",
+                         "µs per step, in the run", "share of the step")]
 
     for row in timing["stages"]:
         in_run = row["us_per_step_in_run"]
         share = "" if in_run is None else f"{100 * in_run / timing['time_per_step_us']:.0f} %"
-        lines.append(f"| {row['stage']} | {cell(row['us_per_call'])} | "
-                     f"{row['calls_per_step']:.3f} | {cell(row['us_per_step'])} | "
-                     f"{cell(in_run)} | {share} |")
+        lines.append(f"| {row['stage']} | {fmt(row['us_per_call'], '.1f')} | "
+                     f"{row['calls_per_step']:.3f} | {fmt(row['us_per_step'], '.1f')} | "
+                     f"{fmt(in_run, '.1f')} | {share} |")
     return "\n".join(lines)
 
 
@@ -240,27 +237,22 @@ def models(folder: Path) -> dict[str, Path]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("docs/integrator_profile"))
-    parser.add_argument("--before", type=Path, default=None,
-                        help="a checkout of the code to compare against")
-    parser.add_argument("--worker", default=None, help=argparse.SUPPRESS)
-    args = parser.parse_args()
+    options = parser(__doc__, out="docs/integrator_profile")
+    options.add_argument("--before", type=Path, default=None,
+                         help="a checkout of the code to compare against")
+    worker_options(options, "--worker")
+    args = options.parse_args()
     if args.worker:
         profile_worker(args.worker)
         return
-    if args.before is not None and not (args.before / "gcms_fenicsx").is_dir():
-        parser.error(f"--before {args.before}: no gcms_fenicsx package there (make one with "
-                     "git worktree add DIR <commit>)")
+    checkout(options, args.before)
     codes = {"after": REPO} | ({"before": args.before} if args.before is not None else {})
-    with tempfile.TemporaryDirectory() as tmp:
-        paths = models(Path(tmp))
+    with temporary_folder() as tmp:
+        paths = models(tmp)
         profiles = {case: {label: run_profile(code, path) for label, code in codes.items()}
                     for case, path in paths.items()}
         timings = {case: stage_timings(path) for case, path in paths.items()}
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    Path(f"{args.out}.json").write_text(json.dumps({"profiles": profiles, "stages": timings},
-                                                   indent=1))
+    write_record(Path(f"{args.out}.json"), {"profiles": profiles, "stages": timings})
     print(profile_table(profiles))
     for case, timing in timings.items():
         print()

@@ -22,19 +22,12 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before NumPy
 
-import argparse
 import json
-import logging
-import sys
-import tempfile
-import tomllib
 from dataclasses import replace
-from pathlib import Path
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
-from auto_modes import errors  # noqa: E402
-from bench_rotor import case, log, repeat_count, table  # noqa: E402
+from common import log, parser, quiet, table_head, temporary_folder, write_record
+from common.crankshaft import BASES, default_study, errors, percents
+from common.rotor import case, table
 
 #: The default study's mode count: the static shapes with attachment modes do not depend on
 #: it (``dynamics.static_shapes``), only the reduced model they are solved in does.
@@ -42,23 +35,20 @@ MODES = 10
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("docs/rotor_fewest"))
-    parser.add_argument("--repeat", type=repeat_count, default=3)
-    args = parser.parse_args()
-    logging.disable(logging.INFO)
+    args = parser(__doc__, out="docs/rotor_fewest", repeat=3).parse_args()
+    quiet()
     from gcms_fenicsx import pipeline
     from gcms_fenicsx.config.basis import scene_patterns
-    from gcms_fenicsx.config.study import default_config_text, parse_config
+    from gcms_fenicsx.config.study import parse_config
 
-    raw = dict(tomllib.loads(default_config_text()), basis={"attachment": "scene"})
+    raw = default_study(basis={"attachment": "scene"})
     cfg = parse_config(dict(raw, modes={"count": MODES}))
     patterns = scene_patterns(replace(cfg.basis, shapes="static"), cfg.scene)
     variants = {"static, 12 patterns": patterns.loads,
                 "static, without gravity": tuple(ld for ld in patterns.loads
                                                  if ld.kind != "gravity")}
-    with tempfile.TemporaryDirectory() as tmp:
-        chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, Path(tmp))
+    with temporary_folder() as tmp:
+        chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, tmp)
         model = pipeline.reduction_stage(
             pipeline.basis_stage(chain.assembly.model, chain.modes, chain.body), cfg.selection)
     rows, runs = [], {}
@@ -72,18 +62,15 @@ def main() -> None:
     reference = runs["static, 12 patterns"]["outputs"]["full"]
     for row, name in zip(rows, variants):
         row["against_twelve"] = {b: errors(runs[name]["outputs"][b], reference)
-                                 for b in ("full", "rotor")}
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.with_suffix(".json").write_text(json.dumps({"rows": rows}, indent=1))
+                                 for b in BASES}
+    write_record(args.out.with_suffix(".json"), {"rows": rows})
     print(table(rows))
-    print("\n| shapes | basis | coordinates | difference from the full basis on 12 patterns |\n"
-          "|---|---|---|---|")
+    print("\n" + "\n".join(table_head("shapes", "basis", "coordinates",
+                                      "difference from the full basis on 12 patterns")))
     for r in rows:
-        for b in ("full", "rotor"):
-            e = r["against_twelve"][b]
-            print(f"| {r['shapes']} | {b} | {r['coordinates'][b]} | " + ", ".join(
-                f"{100 * e[k]:.2f} %" for k in ("nose whirl", "bearing forces", "drive torque"))
-                + " |")
+        for b in BASES:
+            print(f"| {r['shapes']} | {b} | {r['coordinates'][b]} | "
+                  f"{percents(r['against_twelve'][b], 2)} |")
 
 
 if __name__ == "__main__":

@@ -34,18 +34,16 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before NumPy: timings of one core
 
-import argparse
-import json
-import logging
 import math
-import sys
-import tempfile
 import time
 from dataclasses import replace
 from functools import partial
 from pathlib import Path
 
 import numpy as np
+
+from common import log, parser, pyplot, quiet, save_figure, table_head, temporary_folder
+from common import write_record
 
 #: Kane, Ryan & Banerjee (1987): Ω = 6 rad/s, T = 15 s, ω₁ = 3.52 √(EI / ρA L⁴).
 KANE_OMEGA_RAD_S, KANE_RAMP_S = 6.0, 15.0
@@ -58,10 +56,6 @@ MODE_COUNTS = (5, 10, 20)
 #: 9.53 s in 400; at 800 it takes 2.9 iterations per step on average, none more than 15.
 STEPS_PER_PERIOD = 800
 TOLERANCE = 1e-7
-
-
-def log(message: str) -> None:
-    print(message, file=sys.stderr, flush=True)
 
 
 def case_study(quick: bool) -> tuple[dict, dict]:
@@ -106,12 +100,9 @@ def tip_in_hub_frame(traj, drive, tip0: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("docs/spin_up_beam"))
-    parser.add_argument("--quick", action="store_true",
-                        help="half the ramp (a smoke run)")
-    args = parser.parse_args()
-    logging.disable(logging.INFO)
+    args = parser(__doc__, out="docs/spin_up_beam",
+                  quick="half the ramp (a smoke run)").parse_args()
+    quiet()
     from gcms_fenicsx import pipeline
     from gcms_fenicsx.config.study import parse_config
     from gcms_fenicsx.dynamics.body import body_from_reduced
@@ -129,8 +120,8 @@ def main() -> None:
     log(f"ω₁ = {numbers['first_bending_rad_s']:.3f} rad/s, Ω = {numbers['omega_rad_s']:.3f} "
         f"rad/s, T = {numbers['ramp_time_s']:.2f} s, h = {numbers['time_step_s']:.2e} s, "
         f"{scene.steps} steps")
-    with tempfile.TemporaryDirectory() as tmp:
-        chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, Path(tmp))
+    with temporary_folder() as tmp:
+        chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, tmp)
     model, body_mesh = chain.assembly.model, chain.body
     full = full_order_body(model, group_weights(body_mesh, model.Vs))
     tip0 = full.groups["end_xL"].center_m
@@ -179,8 +170,7 @@ def main() -> None:
                 "reference_b": {"wall_s": ref["wall_s"], "max_tip_deflection_m": float(scale),
                                 "newton_iterations_mean": ref["newton_iterations_mean"]},
                 "rows": rows, "curves": curves}
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    Path(f"{args.out}.json").write_text(json.dumps(document, indent=1))
+    write_record(Path(f"{args.out}.json"), document)
     plot(document, Path(f"{args.out}.png"))
     print(table(document))
 
@@ -192,8 +182,8 @@ def table(document: dict) -> str:
              f"h = {c['time_step_s']:.2e} s; reference (b): {document['full_dofs']:,} DOFs, "
              f"{document['reference_b']['wall_s']:.0f} s, tip deflection up to "
              f"{document['reference_b']['max_tip_deflection_m'] * 1e3:.2f} mm", "",
-             "| elasticity | Nm + attachment | coordinates | reached t s | error vs (b) "
-             "| max tip deflection mm | steps/s |", "|---|---|---|---|---|---|---|"]
+             *table_head("elasticity", "Nm + attachment", "coordinates", "reached t s",
+                         "error vs (b)", "max tip deflection mm", "steps/s")]
     for r in document["rows"]:
         lines.append(f"| {r['elasticity']} | {r['modes']} | {r['coordinates']} "
                      f"| {r['time_reached_s']:.2f}{'' if r['complete'] else ' (stopped)'} "
@@ -203,11 +193,7 @@ def table(document: dict) -> str:
 
 
 def plot(document: dict, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     c = document["curves"]
     t = np.array(c["time"])
     fig, ax = plt.subplots(figsize=(9, 4.8))
@@ -226,8 +212,7 @@ def plot(document: dict, path: Path) -> None:
     ax.set_title("spin-up beam (Kane, Ryan & Banerjee 1987, scaled)")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
 
 
 if __name__ == "__main__":

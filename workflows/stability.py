@@ -50,11 +50,11 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # the package ``stress`` beside this
 
+from common import parser, temporary_folder
 from stress import CLASSES, REPO, log
 from stress.document import merged, redraw, write
 from stress.probes_runs import long_runs, mpi
@@ -70,26 +70,24 @@ PROBES: dict[str, Probe] = {
 
 def options(argv: list[str] | None) -> argparse.Namespace:
     """The command line: --quick, --only, --out, --keep, --redraw."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true",
-                        help="the smallest members of each class (a few minutes)")
-    parser.add_argument("--only", action="append", choices=CLASSES, metavar="CLASS",
-                        help=f"run only this class (repeatable): {', '.join(CLASSES)}")
-    parser.add_argument("--out", type=Path, default=REPO / "docs" / "stability",
-                        help="OUT.json, OUT.png and OUT.md (default docs/stability)")
-    parser.add_argument("--keep", type=Path, default=None,
-                        help="work in this folder and keep every study and --out there")
-    parser.add_argument("--redraw", action="store_true",
-                        help="run nothing: rewrite OUT.md and OUT.png from OUT.json")
-    return parser.parse_args(argv)
+    options = parser(__doc__, quick="the smallest members of each class (a few minutes)",
+                     out=REPO / "docs" / "stability",
+                     out_help="OUT.json, OUT.png and OUT.md (default docs/stability)")
+    options.add_argument("--only", action="append", choices=CLASSES, metavar="CLASS",
+                         help=f"run only this class (repeatable): {', '.join(CLASSES)}")
+    options.add_argument("--keep", type=Path, default=None,
+                         help="work in this folder and keep every study and --out there")
+    options.add_argument("--redraw", action="store_true",
+                         help="run nothing: rewrite OUT.md and OUT.png from OUT.json")
+    return options.parse_args(argv)
 
 
 def run_classes(chosen: list[str], quick: bool, keep: Path | None) -> dict[str, dict]:
     """Run each chosen class in a temporary folder (``keep`` instead, kept), printing its
     table: each class's record by name."""
     runs: dict[str, dict] = {}
-    with tempfile.TemporaryDirectory(prefix="gcms-stability-") as tmp:
-        folder = Path(tmp) if keep is None else keep.resolve()
+    with temporary_folder(prefix="gcms-stability-") as tmp:
+        folder = tmp if keep is None else keep.resolve()
         folder.mkdir(parents=True, exist_ok=True)
         for cls in chosen:
             runs[cls] = run_class(cls, PROBES[cls], quick, folder)

@@ -14,14 +14,9 @@
 """
 from __future__ import annotations
 
-import sys
-from pathlib import Path
+from common import REPO, log
 
-REPO = Path(__file__).resolve().parents[2]
+__all__ = ["CLASSES", "REPO", "log"]
+
 #: The probe classes in the order they run and are reported.
 CLASSES = ("symmetry", "units", "slenderness", "modes", "long", "material", "mpi")
-
-
-def log(message: str) -> None:
-    """A progress line on stderr."""
-    print(message, file=sys.stderr, flush=True)

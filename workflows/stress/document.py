@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from common import with_record, write_markdown
 from gcms_fenicsx.files.outputs import finite_json
 from stress import CLASSES, log
 from stress.figure import plot
@@ -34,18 +35,20 @@ def python_scalar(value: np.generic):
 
 
 def redraw(document: dict, out: Path) -> None:
-    """Write OUT.md and draw OUT.png from ``document``."""
-    Path(f"{out}.md").write_text(markdown(document))
+    """Write OUT.md (under the provenance of this command) and draw OUT.png from ``document``."""
+    write_markdown(Path(f"{out}.md"), markdown(document))
     plot(document, Path(f"{out}.png"))
 
 
 def write(document: dict, out: Path) -> None:
-    """OUT.json (strict: NaN and ±inf as null), OUT.md and OUT.png; a picture that rows of an
-    older suite cannot fill is skipped with a line saying why."""
+    """OUT.json (strict: NaN and ±inf as null; its provenance ``record`` first), OUT.md (under
+    the same provenance) and OUT.png; a picture that rows of an older suite cannot fill is
+    skipped with a line saying why."""
     out.parent.mkdir(parents=True, exist_ok=True)
+    document = with_record(document)
     Path(f"{out}.json").write_text(json.dumps(finite_json(document), indent=1, allow_nan=False,
                                               default=python_scalar))
-    Path(f"{out}.md").write_text(markdown(document))
+    write_markdown(Path(f"{out}.md"), markdown(document), document["record"])
     try:
         plot(document, Path(f"{out}.png"))
     except (KeyError, TypeError, ValueError, IndexError) as exc:  # rows of an older suite

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from common import pyplot, save_figure
 from stress.paragraphs import g
 from stress.studies import E_REFERENCE
 from stress.tables import good
@@ -191,11 +192,7 @@ def panels(classes: dict[str, list[dict]]) -> list[Panel]:
 
 def plot(document: dict, path: Path) -> None:
     """Draw the panels of the document's good rows into ``path``."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     classes = {k: good(v["rows"]) for k, v in document["classes"].items()}
     fig, axes = plt.subplots(2, 4, figsize=(23, 9.5))
     for (i, j), title, draw, data in panels(classes):
@@ -203,6 +200,4 @@ def plot(document: dict, path: Path) -> None:
             draw(axes[i, j], data)
         else:
             empty(axes[i, j], title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save_figure(fig, path, dpi=100)

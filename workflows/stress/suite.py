@@ -3,13 +3,13 @@ date, revision and wall time, a fault of the suite itself kept as a row."""
 from __future__ import annotations
 
 import datetime
-import subprocess
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from stress import REPO, log
+from common import commit
+from stress import log
 from stress.readers import Reader
 from stress.runner import Run
 
@@ -44,22 +44,6 @@ class Suite:
 Probe = Callable[[Suite], None]
 
 
-def git(*args: str) -> str:
-    """The standard output of ``git ARGS`` in the checkout."""
-    return subprocess.run(["git", *args], cwd=REPO, text=True, capture_output=True,
-                          timeout=10, check=False).stdout
-
-
-def git_revision() -> str | None:
-    """The short commit of the checkout, "+changes" when tracked files differ from it."""
-    try:
-        rev = git("rev-parse", "--short", "HEAD").strip()
-        dirty = git("status", "--porcelain", "--untracked-files=no")
-        return rev + ("+changes" if dirty.strip() else "") if rev else None
-    except (OSError, subprocess.SubprocessError):
-        return None
-
-
 def run_class(cls: str, probe: Probe, quick: bool, folder: Path) -> dict:
     """Run one probe class in ``folder``: its record in OUT.json (mode, date, revision, wall
     time and rows; a fault of the suite is a row of outcome "suite error" and ends the class)."""
@@ -76,4 +60,4 @@ def run_class(cls: str, probe: Probe, quick: bool, folder: Path) -> dict:
         log(f"  suite error in {cls}: {type(exc).__name__}: {exc}")
     return {"mode": "quick" if quick else "full",
             "date": datetime.datetime.now().isoformat(timespec="seconds"),
-            "git": git_revision(), "wall_s": time.perf_counter() - t0, "rows": suite.rows}
+            "git": commit(short=True), "wall_s": time.perf_counter() - t0, "rows": suite.rows}
