@@ -99,13 +99,6 @@ def temporary_folder(prefix: str | None = None) -> Iterator[Path]:
         yield Path(tmp)
 
 
-def suffixed(out: Path, suffix: str) -> Path:
-    """``OUT`` + ``suffix`` (``docs/x`` → ``docs/x.json``), its folder made."""
-    path = Path(f"{out}{suffix}")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    return path
-
-
 # --- tables --------------------------------------------------------------------------------
 
 def table_head(*columns: str) -> list[str]:
@@ -155,10 +148,12 @@ def _git(*args: str) -> str:
 
 def commit(short: bool = False) -> str | None:
     """The checkout's commit (``short``: abbreviated), with "+changes" when tracked files
-    differ from it; None outside a git checkout."""
+    outside docs/ differ from it (the records and pages there are what workflows write, not
+    what they run); None outside a git checkout."""
     try:
         rev = _git("rev-parse", *(["--short"] if short else []), "HEAD")
-        dirty = _git("status", "--porcelain", "--untracked-files=no")
+        dirty = _git("status", "--porcelain", "--untracked-files=no", "--", ".",
+                     ":(exclude)docs")
     except (OSError, subprocess.SubprocessError):
         return None
     return rev + ("+changes" if dirty else "") if rev else None
