@@ -132,9 +132,8 @@ def test_a_large_selection_announces_its_estimate_and_reports_its_pivots(monkeyp
     monkeypatch.setattr(selection, "PROGRESS_INTERVAL_S", 0.0)
     chosen = selection.select_fields(gram, SelectionConfig(), names, progress=lines.append)
     assert len(chosen.kept) == 30 and len(chosen.dropped) == 34
-    estimate = selection.estimated_seconds(64)
-    assert lines[0] == (f"selection: 64 fields, estimated {estimate:.2g} s (the eigenvalues "
+    assert lines[0] == ("selection: 64 fields, estimated under a second (the eigenvalues "
                         "of their 64 × 64 Gram matrix and up to 64 pivots)")
     pivots = [line for line in lines[1:] if line.startswith("selection: pivot ")]
     assert len(pivots) == 30 and pivots[-1].startswith("selection: pivot 30 of at most 30")
-    assert selection.estimated_seconds(4 + 3 * 1700) > 60.0   # announced in minutes
+    assert selection.estimate_text(selection.estimated_seconds(4 + 3 * 1700)).endswith("min")

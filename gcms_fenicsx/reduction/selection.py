@@ -95,13 +95,20 @@ def estimated_seconds(fields: int) -> float:
     return SECONDS_PER_FIELD_CUBED * fields ** 3
 
 
+def estimate_text(seconds: float) -> str:
+    """"under a second", "40 s" or "2.1 min": an estimate as a progress line says it."""
+    if seconds < 1.0:
+        return "under a second"
+    return f"{seconds:.0f} s" if seconds < 100.0 else f"{seconds / 60:.2g} min"
+
+
 def select_fields(gram: np.ndarray, cfg: SelectionConfig, names: tuple[str, ...],
                   progress: Progress = quiet) -> Selection:
     """Cosine stage, then rank-revealing stage, on the field Gram matrix ``gram``; one
     progress line with the estimated time before, and one every PROGRESS_INTERVAL_S while
     the fields are pivoted."""
     nf = gram.shape[0]
-    progress(f"selection: {nf} fields, estimated {estimated_seconds(nf):.2g} s (the "
+    progress(f"selection: {nf} fields, estimated {estimate_text(estimated_seconds(nf))} (the "
              f"eigenvalues of their {nf} × {nf} Gram matrix and up to {nf} pivots)")
     dropped: list[dict] = []
     cos = cosine_matrix(gram)
