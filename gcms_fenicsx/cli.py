@@ -60,9 +60,10 @@ def main(argv: list[str] | None = None) -> int:
 def _run(args: argparse.Namespace) -> int:
     from mpi4py import MPI
 
-    from gcms_fenicsx import commands  # light: the FE verbs import dolfinx when they run
-    from gcms_fenicsx.commands import PicturesInterrupted, SimulationIncomplete
-    from gcms_fenicsx.dynamics.scene import SceneError
+    from gcms_fenicsx.app import commands  # light: the FE verbs import dolfinx when they run
+    from gcms_fenicsx.app.commands import PicturesInterrupted
+    from gcms_fenicsx.dynamics.run.study_run import SimulationIncomplete
+    from gcms_fenicsx.config.scene import SceneError
     from gcms_fenicsx.files.reduced_model import ReducedModelError
     from gcms_fenicsx.runtime.errors import ComputationFailed
     from gcms_fenicsx.runtime.interrupts import Interrupted, interruptible

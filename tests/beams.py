@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from gcms_fenicsx.dynamics.body import Body
-from gcms_fenicsx.dynamics.joints import build_constraints
+from gcms_fenicsx.dynamics.bodies.body import Body
+from gcms_fenicsx.dynamics.constraints.joints import build_constraints
 
 LENGTH, WIDTH_Y, HEIGHT_Z = 0.5, 0.03, 0.02
 E_STEEL, NU_STEEL, RHO_STEEL = 210e9, 0.3, 7850.0

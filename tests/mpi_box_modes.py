@@ -7,10 +7,12 @@ from mpi4py import MPI
 
 import numpy as np
 
-from gcms_fenicsx import pipeline
+from gcms_fenicsx.app import pipeline
 from gcms_fenicsx.fe import algebra, mass
 from gcms_fenicsx.config.selection import SelectionConfig
-from gcms_fenicsx.reduction import basis, modal_basis, selection
+from gcms_fenicsx.fe import basis
+from gcms_fenicsx.files import modal_basis
+from gcms_fenicsx.reduction import selection
 from gcms_fenicsx.config.material import Material
 from gcms_fenicsx.config.modes import ModesConfig
 

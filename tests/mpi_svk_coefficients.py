@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from gcms_fenicsx import pipeline
+from gcms_fenicsx.app import pipeline
 from gcms_fenicsx.config.material import Material
 from gcms_fenicsx.files.reduced_model import read_reduced
 

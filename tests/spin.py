@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from gcms_fenicsx.config.basis import AttachmentLoad
-from gcms_fenicsx.dynamics.rotor_basis import generalized_loads
+from gcms_fenicsx.dynamics.bases.rotor_basis import generalized_loads
 
 
 def drive_spin(cfg, body) -> np.ndarray:

@@ -15,11 +15,11 @@ import tomllib
 import numpy as np
 import pytest
 
-from gcms_fenicsx import pipeline
+from gcms_fenicsx.app import pipeline
 from gcms_fenicsx.config.study import default_config_text, parse_config
-from gcms_fenicsx.dynamics.body import body_from_reduced
+from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
 from gcms_fenicsx.fe.node_groups import group_weights
-from gcms_fenicsx.dynamics.statics import held_static
+from gcms_fenicsx.dynamics.constraints.statics import held_static
 from gcms_fenicsx.references.full_order import full_held_static, full_order_body
 
 from spin import drive_spin
@@ -29,6 +29,7 @@ logging.disable(logging.INFO)
 NOSE = "end_x0"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("load", ["scene", "spin"])
 def test_the_crankshaft_held_by_its_bearings_and_drive_is_the_full_models(tmp_path, load):
     """The default scene (two main bearings, the front one driven) on a coarse mesh with two
@@ -40,7 +41,8 @@ def test_the_crankshaft_held_by_its_bearings_and_drive_is_the_full_models(tmp_pa
     raw = tomllib.loads(default_config_text())
     cfg = parse_config(dict(raw, mesh=dict(raw["mesh"], size=0.02), modes={"count": 2},
                             basis={"attachment": "scene"}, selection={"svd_tolerance": 1e-7}))
-    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, tmp_path)
+    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.plan.body.modes,
+                               tmp_path)
     model = chain.assembly.model
     full = full_order_body(model, group_weights(chain.body, model.Vs))
     reduced = body_from_reduced(pipeline.reduction_stage(

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from gcms_fenicsx.references.beam_theory import bar_hz, cowper_kappa, rectangle_torsion_constant, timoshenko_hz, torsion_hz
-from gcms_fenicsx import pipeline
+from gcms_fenicsx.app import pipeline
 from gcms_fenicsx.fe import algebra, assembly, modes
 from gcms_fenicsx.config.material import Material
 from gcms_fenicsx.config.modes import ModesConfig
@@ -62,6 +62,7 @@ def _first(freqs: np.ndarray, kinds: list[str], kind: str) -> float:
     return freqs[kinds.index(kind)]
 
 
+@pytest.mark.slow
 def test_rectangle_beam(tmp_path):
     model, modes, kinds, size = _solve(tmp_path, {"section": "rectangle", "width": WIDTH,
                                                   "height": HEIGHT})
@@ -76,6 +77,7 @@ def test_rectangle_beam(tmp_path):
     assert _first(f, kinds, "axial") == pytest.approx(bar_hz(1, STEEL.E, STEEL.rho, L), rel=5e-3)
 
 
+@pytest.mark.slow
 def test_rectangle_beam_torsion(tmp_path):
     """The warping of a rectangle's section needs a finer mesh than bending: at the
     default size (22 mm, two elements through the height) torsion is 1.5 % stiff, at
@@ -90,6 +92,7 @@ def test_rectangle_beam_torsion(tmp_path):
     assert _first(fine.elastic_frequencies_hz, kinds, "torsion") == pytest.approx(ref, rel=3e-3)
 
 
+@pytest.mark.slow
 def test_circle_beam(tmp_path):
     model, modes, kinds, size = _solve(tmp_path, {"section": "circle", "radius": RADIUS})
     f = modes.elastic_frequencies_hz

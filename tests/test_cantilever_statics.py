@@ -13,9 +13,9 @@ import pytest
 from beams import (E_STEEL, HEIGHT_Z, LENGTH, NU_STEEL, WIDTH_Y, beam_study,
                    linear_static_displacement)
 from conftest import gcms_reduce
-from gcms_fenicsx.dynamics.body import body_from_reduced
-from gcms_fenicsx.dynamics.scene import parse_scene
-from gcms_fenicsx.dynamics.simulate import simulate_body
+from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
+from gcms_fenicsx.config.scene import parse_scene
+from gcms_fenicsx.dynamics.run.simulate import simulate_body
 from gcms_fenicsx.files.reduced_model import read_reduced
 
 
@@ -28,6 +28,7 @@ def beam30(tmp_path_factory):
     return model, body_from_reduced(model)
 
 
+@pytest.mark.slow
 def test_ramped_tip_load_settles_to_the_static_cantilever_deflection(beam30):
     """A 100 N end load (−z, ramped over 20 ms) on a cantilever (fixed joint at x = 0), with
     β = 3e-3 damping, settles to:

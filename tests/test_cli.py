@@ -34,6 +34,7 @@ def beam_config(tmp_path):
     return path
 
 
+@pytest.mark.slow
 def test_mesh_writes_msh_and_json(beam_config, tmp_path):
     out = tmp_path / "out"
     run = gcms("mesh", str(beam_config), "--out", str(out))
@@ -47,6 +48,7 @@ def test_mesh_writes_msh_and_json(beam_config, tmp_path):
     assert sorted(p.name for p in out.iterdir()) == ["cache.json", "mesh.json", "mesh.msh"]
 
 
+@pytest.mark.slow
 def test_modes_writes_json_and_mode_shapes_only_when_asked(beam_config, tmp_path):
     """gcms modes writes modes.h5 and modes.json, and no mode shapes unless [outputs] asks;
     asked, the next command reuses the solve and writes them as binary XDMF + HDF5 whose
@@ -107,6 +109,7 @@ def test_bad_input_is_one_clear_line_and_writes_nothing(beam_config, tmp_path, p
     assert not out.exists() or not any(out.iterdir())
 
 
+@pytest.mark.slow
 def test_failed_solve_keeps_earlier_results_and_adds_nothing(beam_config, tmp_path):
     out = tmp_path / "out"
     assert gcms("mesh", str(beam_config), "--out", str(out)).returncode == 0
@@ -119,6 +122,7 @@ def test_failed_solve_keeps_earlier_results_and_adds_nothing(beam_config, tmp_pa
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # nothing changed
 
 
+@pytest.mark.slow
 @pytest.mark.mpi
 def test_modes_on_two_ranks_match_serial(beam_config, tmp_path):
     serial, parallel = tmp_path / "one", tmp_path / "two"

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import tomllib
 
-from gcms_fenicsx.config.study import (REDUCED_MODEL_TABLES, default_config_text, load_config,
-                                       parse_config)
+from gcms_fenicsx.config.plan import REDUCED_MODEL_TABLES
+from gcms_fenicsx.config.study import default_config_text, load_config, parse_config
 
 #: Hashes recorded with the code of 2026-11-24 (d2b8c1b), before the package was reorganised
 #: into config/, fe/, reduction/, files/: reduced.h5 files written then are still reused.
@@ -19,12 +19,12 @@ def test_the_input_hash_of_a_study_is_stable():
     differ (a file cached without them is not reused for it)."""
     raw = tomllib.loads(default_config_text())
     plain = parse_config(dict(raw, basis={"attachment": "none"}))
-    assert plain.digest(*REDUCED_MODEL_TABLES) == DEFAULT_STUDY_HASH
-    assert load_config(None).digest(*REDUCED_MODEL_TABLES) != DEFAULT_STUDY_HASH
+    assert plain.plan.body.digest(*REDUCED_MODEL_TABLES) == DEFAULT_STUDY_HASH
+    assert load_config(None).plan.body.digest(*REDUCED_MODEL_TABLES) != DEFAULT_STUDY_HASH
     beam = parse_config({"geometry": {"kind": "beam", "section": "square", "side": 0.01,
                                       "length": 2.0},
                          "mesh": {"order": 2}, "modes": {"count": 6}})
-    assert beam.digest(*REDUCED_MODEL_TABLES) == SLENDER_BEAM_HASH
+    assert beam.plan.body.digest(*REDUCED_MODEL_TABLES) == SLENDER_BEAM_HASH
 
 
 def test_the_hash_follows_the_tables_it_covers():
@@ -33,15 +33,17 @@ def test_the_hash_follows_the_tables_it_covers():
     raw = tomllib.loads(default_config_text())
     base = parse_config(dict(raw, basis={"attachment": "none"}))
     longer = parse_config(dict(raw, scene=dict(raw["scene"], end_time=0.2)))
-    assert (longer.digest(*REDUCED_MODEL_TABLES)
-            == load_config(None).digest(*REDUCED_MODEL_TABLES))
+    assert (longer.plan.body.digest(*REDUCED_MODEL_TABLES)
+            == load_config(None).plan.body.digest(*REDUCED_MODEL_TABLES))
     stiffer = parse_config({"geometry": {"kind": "crankshaft", "throws": 4},
                             "mesh": {"order": 2}, "material": {"E": 211e9},
                             "modes": {"count": 10}})
-    assert stiffer.digest(*REDUCED_MODEL_TABLES) != base.digest(*REDUCED_MODEL_TABLES)
+    assert (stiffer.plan.body.digest(*REDUCED_MODEL_TABLES)
+            != base.plan.body.digest(*REDUCED_MODEL_TABLES))
     unscened = parse_config({"geometry": {"kind": "crankshaft", "throws": 4},
                              "mesh": {"order": 2}, "modes": {"count": 10}})
-    assert unscened.digest(*REDUCED_MODEL_TABLES) == base.digest(*REDUCED_MODEL_TABLES)
+    assert (unscened.plan.body.digest(*REDUCED_MODEL_TABLES)
+            == base.plan.body.digest(*REDUCED_MODEL_TABLES))
 
 
 def test_auto_count_takes_the_band_of_the_scene():
@@ -54,13 +56,13 @@ def test_auto_count_takes_the_band_of_the_scene():
     from gcms_fenicsx.config.table import ConfigError
 
     raw = tomllib.loads(default_config_text())
-    band = parse_config(dict(raw, modes={"count": "auto"})).modes.band
+    band = parse_config(dict(raw, modes={"count": "auto"})).plan.body.modes.band
     drive_hz = 314.159 / (2 * math.pi)                       # the default scene: 3000 rpm
     assert band.excitation_hz == pytest.approx(25.0 + drive_hz)   # its 25 Hz firing loads
     assert band.max_frequency_hz == pytest.approx(2 * (25.0 + drive_hz))
     assert band.set_by == "drive" and band.resolved_hz == pytest.approx(2000.0)
     coarse = dict(raw["scene"], time_step=2e-3)              # resolves 50 Hz only
-    capped = parse_config(dict(raw, modes={"count": "auto"}, scene=coarse)).modes.band
+    capped = parse_config(dict(raw, modes={"count": "auto"}, scene=coarse)).plan.body.modes.band
     assert capped.set_by == "time step" and capped.max_frequency_hz == pytest.approx(50.0)
     no_scene = {k: v for k, v in raw.items() if k != "scene"}
     with pytest.raises(ConfigError, match=r"\[modes\] count.*needs a \[scene\]"):
@@ -81,18 +83,18 @@ def test_attachment_auto_follows_the_scene():
     default = load_config(None)
     assert default.basis.attachment == "auto"
     scene = parse_config(dict(raw, basis={"attachment": "scene"}))
-    assert default.modes.attachment == scene.modes.attachment
+    assert default.plan.body.modes.attachment == scene.plan.body.modes.attachment
     # the default scene: 3 forces at each bearing, 2 at each crank pin (the gas force along z
     # turns with the shaft in the y-z plane only), 2 moments at each bearing, the drive's
     # moment, the spin's centrifugal load
-    kinds = [load.kind for load in default.modes.attachment]
+    kinds = [load.kind for load in default.plan.body.modes.attachment]
     assert (kinds.count("force"), kinds.count("moment"), kinds.count("centrifugal")) == (
         3 * 2 + 2 * 4, 2 * 2 + 1, 1)
-    pins = {load.direction for load in default.modes.attachment if load.group == "pin_0"}
+    pins = {load.direction for load in default.plan.body.modes.attachment if load.group == "pin_0"}
     assert pins == {(0.0, 0.0, 1.0), (0.0, -1.0, 0.0)}
-    assert parse_config(dict(raw, basis={"attachment": "none"})).modes.attachment is None
+    assert parse_config(dict(raw, basis={"attachment": "none"})).plan.body.modes.attachment is None
     no_scene = {k: v for k, v in raw.items() if k != "scene"}
-    assert parse_config(no_scene).modes.attachment is None
+    assert parse_config(no_scene).plan.body.modes.attachment is None
     assert attachment_loads(parse_basis(None), None) == ()
     with pytest.raises(ConfigError, match=r"\[basis\] attachment.*needs a \[scene\]"):
         parse_config(dict(no_scene, basis={"attachment": "scene"}))
@@ -108,7 +110,7 @@ def test_a_load_gets_the_directions_the_body_can_see_it_in():
     import math
 
     from gcms_fenicsx.config.basis import BasisConfig, attachment_loads
-    from gcms_fenicsx.dynamics.scene import parse_scene
+    from gcms_fenicsx.config.scene import parse_scene
 
     def forces(joints, loads):
         scene = parse_scene({"end_time": 0.01, "time_step": 1e-3, "joints": joints,
@@ -154,7 +156,7 @@ def test_static_shapes_take_the_scenes_load_patterns():
 
     from gcms_fenicsx.config.basis import BasisConfig, scene_patterns, static_loads
     from gcms_fenicsx.config.table import ConfigError
-    from gcms_fenicsx.dynamics.scene import parse_scene
+    from gcms_fenicsx.config.scene import parse_scene
 
     raw = tomllib.loads(default_config_text())
     cfg = parse_config(dict(raw, basis={"shapes": "static"}))
@@ -164,8 +166,8 @@ def test_static_shapes_take_the_scenes_load_patterns():
             kinds.count("centrifugal")) == (2 * 4, 2, 1, 1)
     assert {ld.direction for ld in loads if ld.kind == "gravity"} == {(0.0, 0.0, 1.0),
                                                                        (0.0, -1.0, 0.0)}
-    assert (cfg.digest(*REDUCED_MODEL_TABLES)
-            == load_config(None).digest(*REDUCED_MODEL_TABLES))
+    assert (cfg.plan.body.digest(*REDUCED_MODEL_TABLES)
+            == load_config(None).plan.body.digest(*REDUCED_MODEL_TABLES))
     assert static_loads(load_config(None).basis, cfg.scene) == ()
     # the held modes kept besides: below the scene's band, twice (25 Hz + 50 Hz)
     patterns = scene_patterns(cfg.basis, cfg.scene)

@@ -11,7 +11,7 @@ from dolfinx.mesh import CellType, create_box
 
 from gcms_fenicsx.references.beam_theory import cowper_kappa, euler_bernoulli_hz, timoshenko_hz
 from symmetric_mesh import symmetric_box
-from gcms_fenicsx import pipeline
+from gcms_fenicsx.app import pipeline
 from gcms_fenicsx.fe import algebra, eigensolve, factor, mass, verification
 from gcms_fenicsx.config.material import Material
 from gcms_fenicsx.config.modes import ModesConfig, parse_modes
@@ -34,6 +34,7 @@ def square_modes():
     return model, pipeline.modes_stage(model, ModesConfig(count=10))
 
 
+@pytest.mark.slow
 def test_solver_checks_hold(square_modes):
     model, modes = square_modes
     assert modes.rigid_count == 6
@@ -48,6 +49,7 @@ def test_solver_checks_hold(square_modes):
     assert v.mass_kron_defect < 1e-14 and v.mass_kron_defect <= v.mass_kron_limit
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("slenderness, across", [(200, 2), (1000, 1)])
 def test_slender_beams_solve_and_match_beam_theory(slenderness, across):
     """A 10 mm square steel beam of L/h = 200 and 1000 (P2 box cells of h/2 and h): every check
@@ -174,6 +176,7 @@ def _observed_order(degree: int, ns: tuple[int, ...]) -> np.ndarray:
     return np.log2(diff[:-1] / diff[1:])[-1, 0]
 
 
+@pytest.mark.slow
 def test_eigenvalues_converge_at_order_2p():
     """λ_h − λ = O(h^{2p}) for P_p elements (Strang & Fix, An Analysis of the FEM, §6.3).
 

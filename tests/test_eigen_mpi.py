@@ -9,6 +9,7 @@ import pytest
 from conftest import REPO, mpirun
 
 
+@pytest.mark.slow
 @pytest.mark.mpi
 def test_two_ranks_give_the_serial_frequencies():
     script = str(REPO / "tests" / "mpi_box_modes.py")

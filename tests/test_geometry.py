@@ -55,6 +55,7 @@ CASES = [(section, order) for section, _, _ in ANALYTIC_AREAS for order in (1, 2
 ROUND = {"circle", "tube"}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("section, order", CASES)
 def test_beam_section_builds_with_groups_centroid_on_axis_and_exact_volume(beams, section, order):
     geom, info, path = beams[section, order]
@@ -67,6 +68,7 @@ def test_beam_section_builds_with_groups_centroid_on_axis_and_exact_volume(beams
     assert (x0, x1) == pytest.approx((0.0, LENGTH), abs=1e-6)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("section, order", CASES)
 def test_beam_mesh_reads_into_dolfinx_with_the_right_volume(beams, section, order):
     """Straight-edged sections exactly; round ones to 1e-4 at order 2 (curved cells) with
@@ -137,6 +139,7 @@ def test_crankshaft_builds_one_solid_with_journal_and_pin_groups(throws):
                                                 geom.stroke / 2 * math.sin(angle)], abs=1e-9)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("throws", [1, 2, 4, 6])
 def test_crankshaft_mesh_has_every_group_and_reads_into_dolfinx(crankshafts, throws):
     geom, info, path = crankshafts[throws]
@@ -152,6 +155,7 @@ def test_crankshaft_mesh_has_every_group_and_reads_into_dolfinx(crankshafts, thr
     assert mesh_volume(mesh) == pytest.approx(volume, rel=5e-4)  # curved order 2, size 20 mm
 
 
+@pytest.mark.slow
 def test_inline_four_is_balanced_and_symmetric(crankshafts):
     """0/180/180/0 with counterweights: centre of mass on the axis."""
     geom, info, _ = crankshafts[4]
@@ -159,6 +163,7 @@ def test_inline_four_is_balanced_and_symmetric(crankshafts):
     assert com[1:] == pytest.approx([0.0, 0.0], abs=1e-12)
 
 
+@pytest.mark.slow
 def test_default_crankshaft_mesh_is_modest(tmp_path):
     geom = parse_geometry({"kind": "crankshaft"})
     info = build_msh(geom, parse_mesh(None, geom), tmp_path / "crank.msh")

@@ -8,7 +8,7 @@ import pytest
 from mpi4py import MPI
 
 from gcms_fenicsx.references.beam_theory import cowper_kappa, timoshenko_hz
-from gcms_fenicsx import pipeline
+from gcms_fenicsx.app import pipeline
 from gcms_fenicsx.config.material import Material
 from gcms_fenicsx.fe.mesh import read_mesh
 from gcms_fenicsx.config.modes import ModesConfig
@@ -58,6 +58,7 @@ def test_slender_p1_beam_warns_and_the_p2_one_does_not(tmp_path):
     assert element_order_warning(geom, parse_mesh(None, geom)) is None  # default order 2
 
 
+@pytest.mark.slow
 def test_prediction_matches_the_finite_elements_where_it_decides(tmp_path):
     """At s/h = 0.25 (near the 5 % threshold's s/h = 0.18) the law was fitted within
     0.86–1.09 of the measurements; a fresh P1 mesh of L/h = 20 is asked to agree within
@@ -70,6 +71,7 @@ def test_prediction_matches_the_finite_elements_where_it_decides(tmp_path):
     assert element_order_warning(geom, parse_mesh(mesh, geom)) is not None
 
 
+@pytest.mark.slow
 def test_a_stubby_p1_block_meshed_finely_does_not_warn(tmp_path):
     """L/h = 2 at h/8: the bending pair of P1 is measured within 5 % of a P2 mesh at h/4
     (P2 at h/2 was within 1e-4 of the finest mesh on the bench beam), and nothing is said.

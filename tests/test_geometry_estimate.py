@@ -45,6 +45,7 @@ CASES = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("geometry, mesh", CASES, ids=[
     f"{g.get('section', 'crankshaft')}-{i}" for i, (g, _) in enumerate(CASES)])
 def test_estimate_is_within_a_factor_of_two_of_gmsh(tmp_path, geometry, mesh):

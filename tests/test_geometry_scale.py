@@ -37,6 +37,7 @@ def nodes_of(path) -> np.ndarray:
     return xyz.reshape(-1, 3)[np.argsort(tags)]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("geometry, mesh", [
     (I_BEAM, {"size": 0.01, "order": 2}),
     ({"kind": "beam", "section": "tube", "radius": 0.02, "thickness": 0.004, "length": 0.2},

@@ -1,5 +1,5 @@
 """``[scene.initial] mode``: its shape no longer depends on the basis the eigen-solver returns
-for a repeated pair, nor on the sign it returns (``dynamics.initial``, rule in ``scene``).
+for a repeated pair, nor on the sign it returns (``dynamics.stepping.initial``, rule in ``scene``).
 
 Two square beams (30 × 30 mm, 0.5 m and 0.5001 m: near-identical, so their bending pairs are
 split only by their meshes, 1e-6..1e-5, and the solver returns a differently turned basis of
@@ -17,11 +17,11 @@ import pytest
 
 from conftest import gcms, gcms_reduce, strict_json
 from simulate_runs import assert_one_line_error, contents
-from gcms_fenicsx.dynamics.body import Body, body_from_reduced
-from gcms_fenicsx.dynamics.initial import (TIE, mode_cluster, nodal_displacements,
+from gcms_fenicsx.dynamics.bodies.body import Body, body_from_reduced
+from gcms_fenicsx.dynamics.stepping.initial import (TIE, mode_cluster, nodal_displacements,
                                            oriented_shape)
-from gcms_fenicsx.dynamics.scene import Initial, parse_scene
-from gcms_fenicsx.dynamics.simulate import elastic_modes, initial_coordinates
+from gcms_fenicsx.config.scene import Initial, parse_scene
+from gcms_fenicsx.dynamics.run.simulate import elastic_modes, initial_coordinates
 from gcms_fenicsx.files.reduced_model import read_reduced
 from gcms_fenicsx.config.table import ConfigError
 
@@ -61,6 +61,7 @@ def angle(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.arctan2(np.linalg.norm(np.cross(a, b)), a @ b))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mode", [1, 3])
 def test_direction_gives_near_identical_beams_the_same_shape(square_beams, mode):
     """Mode 1 (first bending pair, symmetric: both ends move alike) and mode 3 (second pair,
@@ -89,6 +90,7 @@ def test_direction_gives_near_identical_beams_the_same_shape(square_beams, mode)
     assert min(angle(raw[0], raw[1]), angle(raw[0], -raw[1])) > 10 * tol, (raw, tol)
 
 
+@pytest.mark.slow
 def test_direction_does_not_depend_on_the_basis_of_the_pair(square_beams):
     """The oriented shape is a function of the pair's subspace: the solver's basis turned by
     40° or reflected gives the same shape, to the round-off of the few products of length
@@ -105,6 +107,7 @@ def test_direction_does_not_depend_on_the_basis_of_the_pair(square_beams):
         assert np.abs(other - shape).max() <= 10 * (4 * 2 + 2) * EPS * np.abs(shape).max()
 
 
+@pytest.mark.slow
 def test_sign_rule_without_direction(beam6_reduced, square_beams):
     """Without a direction every elastic mode starts with the sign the rule gives: its largest
     nodal displacement's largest-magnitude component is positive (nodes within TIE of the
@@ -206,6 +209,7 @@ def near_square(tmp_path_factory) -> dict[float, NearSquare]:
     return runs
 
 
+@pytest.mark.slow
 def test_near_square_beams_start_alike_without_direction(near_square):
     """Mode 1 without a direction: the beams of ε = 0, 1e-9 and 1e-6, whose first bending pairs
     are split by 1.5e-6, 1.1e-6 and 2.1e-6 (measured; one cluster each), start along the axis
@@ -234,6 +238,7 @@ def test_near_square_beams_start_alike_without_direction(near_square):
             "direction": [0.0, 1.0, 0.0]}
 
 
+@pytest.mark.slow
 def test_near_square_start_warns_near_the_cluster_threshold(near_square):
     """The run warns (progress line and summary ``warnings``) exactly where mode 1's cluster
     is within a factor of ten of the 1e-3 that groups modes: an internal split above 1e-4 or a
@@ -256,6 +261,7 @@ def test_near_square_start_warns_near_the_cluster_threshold(near_square):
     assert warned == {1e-3}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("eps", NEAR_SQUARE_EPSILONS)
 def test_near_square_initial_mode_probes(near_square, tmp_path, eps):
     """Hostile probes of the near-square starts: ``gcms simulate`` on each beam's folder with

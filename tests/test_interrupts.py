@@ -64,6 +64,7 @@ def leftovers(parent: Path) -> list[str]:
     return [p.name for p in parent.iterdir() if p.name.startswith((".gcms-staging", ".meshing"))]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 @pytest.mark.parametrize("stage", ["geometry and mesh:", "eigen-solve:"])
 def test_signal_at_a_stage_leaves_out_as_it_was(tmp_path, signum, stage):
@@ -92,6 +93,7 @@ def test_signal_at_a_stage_leaves_out_as_it_was(tmp_path, signum, stage):
         assert ps.returncode == 1, ps.stdout
 
 
+@pytest.mark.slow
 def test_failed_command_creates_no_out(tmp_path):
     """An eigen-solve that cannot converge fails after the staging folder exists: neither --out
     nor its missing parents appear."""
@@ -105,6 +107,7 @@ def test_failed_command_creates_no_out(tmp_path):
     assert leftovers(tmp_path) == []
 
 
+@pytest.mark.slow
 def test_stale_staging_folders_are_removed_by_the_next_run(tmp_path):
     """Folders of a killed run (a dead process of this host, or an older version's staging
     inside --out) are removed; a live process's staging folder is not touched."""

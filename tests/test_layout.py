@@ -1,6 +1,7 @@
-"""The package's plan, checked: an import graph without cycles, ``geometry`` independent of
-``gcms_fenicsx``, the light set (configuration, file formats, dynamics, runtime) importable
-without the finite-element stack, and modules and functions of a readable size."""
+"""The package's plan, checked: layers by role that import only downwards (docs/design.md,
+Layers), an import graph without cycles, ``geometry`` independent of ``gcms_fenicsx``, the
+light set (runtime, numerics, configuration, file formats, dynamics) importable without the
+finite-element stack, and modules and functions of a readable size."""
 from __future__ import annotations
 
 import ast
@@ -17,7 +18,13 @@ PACKAGES = ("gcms_fenicsx", "geometry")
 FE_STACK = ("dolfinx", "ufl", "basix", "ffcx", "petsc4py", "slepc4py", "mpi4py", "gmsh", "scipy")
 #: The subpackages that must import with NumPy and h5py only.
 LIGHT = ("gcms_fenicsx.config", "gcms_fenicsx.files", "gcms_fenicsx.dynamics",
-         "gcms_fenicsx.runtime")
+         "gcms_fenicsx.runtime", "gcms_fenicsx.numerics")
+#: The layers of gcms_fenicsx, lowest first (docs/design.md, Layers): a package imports only
+#: from its own layer's package and from the layers below; packages that share a layer do
+#: not import each other. ``data`` (the default study) sits with the runtime; ``cli``, the
+#: ``gcms`` entry point, is the top-level module above the application.
+LAYERS = (("runtime", "data"), ("numerics",), ("config",), ("files",),
+          ("fe", "reduction", "dynamics"), ("references",), ("app",), ("cli",))
 MAX_MODULE_LINES = 400
 MAX_FUNCTION_LINES = 80
 
@@ -103,6 +110,36 @@ def test_the_import_graph_has_no_cycles():
     edges = graph()
     edges = {a: {b for b in bs if not _is_package_init_edge(a, b)} for a, bs in edges.items()}
     assert cycles(edges) == []
+
+
+def package_edges() -> dict[str, set[str]]:
+    """Which packages of gcms_fenicsx each package's modules import (a package's own
+    modules and the top-level ``gcms_fenicsx`` left out)."""
+    def package(module: str) -> str | None:
+        parts = module.split(".")
+        return parts[1] if parts[0] == "gcms_fenicsx" and len(parts) > 1 else None
+
+    edges: dict[str, set[str]] = {}
+    for a, bs in graph().items():
+        if package(a) is not None:
+            edges.setdefault(package(a), set()).update(
+                p for b in bs if (p := package(b)) not in (None, package(a)))
+    return edges
+
+
+def test_every_package_has_a_layer():
+    layered = {p for layer in LAYERS for p in layer}
+    assert set(package_edges()) <= layered, set(package_edges()) - layered
+
+
+def test_packages_import_only_down_the_layers():
+    """No package imports a package of its own layer or of a layer above it — so there is no
+    cycle between packages either; e.g. dynamics (``python -m gcms_fenicsx.dynamics``)
+    imports nothing of the application, fe nothing of dynamics."""
+    rank = {p: i for i, layer in enumerate(LAYERS) for p in layer}
+    upward = {a: sorted(b for b in bs if rank[b] >= rank[a])
+              for a, bs in package_edges().items()}
+    assert {a: bs for a, bs in upward.items() if bs} == {}
 
 
 def test_geometry_imports_nothing_of_gcms_fenicsx():

@@ -8,11 +8,12 @@ import numpy as np
 import pytest
 
 from conftest import mpirun
-from gcms_fenicsx import pipeline
+from gcms_fenicsx.app import pipeline
 from gcms_fenicsx.config.geometry import parse_geometry, parse_mesh
 from gcms_fenicsx.config.material import Material
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("throws", [1, 2, 4, 6])
 def test_crankshaft_mass_properties_match_the_cad_to_half_a_percent(tmp_path, throws):
     """Default order-2 mesh (size 0.6 × web_thickness = 10.8 mm)."""
@@ -29,6 +30,7 @@ def test_crankshaft_mass_properties_match_the_cad_to_half_a_percent(tmp_path, th
     np.testing.assert_allclose(np.diag(mesh.inertia_m5), np.diag(J_cad), rtol=5e-3)
 
 
+@pytest.mark.slow
 @pytest.mark.mpi
 def test_gcms_mesh_gives_the_same_volume_on_one_and_two_ranks(tmp_path):
     config = tmp_path / "tube.toml"
@@ -45,6 +47,7 @@ def test_gcms_mesh_gives_the_same_volume_on_one_and_two_ranks(tmp_path):
     assert volumes[1] == pytest.approx(exact, rel=1e-4)
 
 
+@pytest.mark.slow
 def test_the_crankshafts_group_weights_are_positive_and_sum_to_one(tmp_path):
     """The default crankshaft's node groups (P2, 20 mm: its end faces have curved rims whose
     vertex integrals are negative, −0.13 % of end_x0's area on the study mesh): every kept

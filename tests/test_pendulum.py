@@ -17,14 +17,14 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from gcms_fenicsx import pipeline
+from gcms_fenicsx.app import pipeline
 from gcms_fenicsx.references import pendulum
 from gcms_fenicsx.config.study import parse_config
-from gcms_fenicsx.dynamics.body import body_from_reduced
-from gcms_fenicsx.dynamics.corotated import elastic_state
-from gcms_fenicsx.dynamics.rotation import rotation_about
-from gcms_fenicsx.dynamics.simulate import simulate_body
-from gcms_fenicsx.dynamics.statics import held_static
+from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
+from gcms_fenicsx.dynamics.bodies.corotated import elastic_state
+from gcms_fenicsx.numerics.rotation import rotation_about
+from gcms_fenicsx.dynamics.run.simulate import simulate_body
+from gcms_fenicsx.dynamics.constraints.statics import held_static
 from gcms_fenicsx.references.full_order import (full_held_static, full_order_body,
                                                 sparse_factorization, svk_elastic)
 from gcms_fenicsx.fe.node_groups import group_weights
@@ -37,7 +37,7 @@ def case(tmp_path_factory):
     """The pendulum's mesh, FE model, 20 free-free modes (without attachment modes: the tests
     add them where they compare), full-order body and rigid pendulum."""
     cfg = parse_config(dict(pendulum.STUDY, modes={"count": 20}, basis={"attachment": "none"}))
-    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes,
+    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.plan.body.modes,
                                tmp_path_factory.mktemp("pendulum"))
     model = chain.assembly.model
     full = full_order_body(model, group_weights(chain.body, model.Vs))
@@ -72,6 +72,7 @@ def _gcms(case, nm: int):
     return body_from_reduced(pipeline.reduction_stage(basis, cfg.selection))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("damping_beta_s, modes_within_1_percent", [(0.0, 20), (4e-3, 10)])
 def test_gcms_converges_to_the_full_corotated_model(case, reference_a, damping_beta_s,
                                                    modes_within_1_percent):
@@ -96,6 +97,7 @@ def test_gcms_converges_to_the_full_corotated_model(case, reference_a, damping_b
     assert errors[modes_within_1_percent] <= 0.01, errors
 
 
+@pytest.mark.slow
 def test_attachment_modes_bring_ten_modes_within_one_percent(case, reference_a):
     """[basis] attachment = "scene": the static responses to unit forces and to unit moments
     about the two held axes at the pin (inertia relief, docs/design.md §3.7) added as GCMS
@@ -109,8 +111,8 @@ def test_attachment_modes_bring_ten_modes_within_one_percent(case, reference_a):
     cfg, body_mesh, model, modes, _, rigid = case
     attached = parse_config(dict(pendulum.STUDY, modes={"count": 10},
                                  basis={"attachment": "scene"}))
-    assert len(attached.modes.attachment) == 5   # at end_x0: 3 forces, 2 moments
-    with_loads = pipeline.modes_stage(model, attached.modes, body=body_mesh)
+    assert len(attached.plan.body.modes.attachment) == 5   # at end_x0: 3 forces, 2 moments
+    with_loads = pipeline.modes_stage(model, attached.plan.body.modes, body=body_mesh)
     every = pipeline.basis_stage(model, with_loads, body_mesh)
     scene = cfg.scene
     until = rigid.half_period_s
@@ -132,6 +134,7 @@ def test_attachment_modes_bring_ten_modes_within_one_percent(case, reference_a):
     assert errors["10 + attachment, svd_tolerance 1e-5"] <= 0.01, errors
 
 
+@pytest.mark.slow
 def test_svk_reference_is_linear_elasticity_at_small_strain_and_objective(case):
     """Reference (b) on its own: for a smooth bending field of amplitude ε its forces equal
     the co-rotated linear ones to O(ε) (the difference falls 100× for 100× smaller ε), they
@@ -169,6 +172,7 @@ def test_svk_reference_is_linear_elasticity_at_small_strain_and_objective(case):
     assert slope == pytest.approx(f @ d, rel=1e-5)
 
 
+@pytest.mark.slow
 def test_svk_gcms_follows_the_full_order_svk_reference(case):
     """[scene] elasticity = "svk" (docs/design.md §7.2): the reduced Saint Venant–Kirchhoff model
     of ten eigenmodes plus the attachment modes at the pin follows reference (b), the
@@ -177,12 +181,12 @@ def test_svk_gcms_follows_the_full_order_svk_reference(case):
     stress stiffening of the swing's tension, which the constant coefficients contain. Both
     Newton iterations converge to 1e-8 of the body size, as the study's reference does."""
     cfg, body_mesh, model, _, full, rigid = case
-    from gcms_fenicsx.dynamics.svk import SVKLaw, svk_state
+    from gcms_fenicsx.dynamics.bodies.svk import SVKLaw, svk_state
     from gcms_fenicsx.fe.svk_coefficients import svk_coefficients
 
     attached = parse_config(dict(pendulum.STUDY, modes={"count": 10},
                                  basis={"attachment": "scene"}))
-    basis = pipeline.basis_stage(model, pipeline.modes_stage(model, attached.modes,
+    basis = pipeline.basis_stage(model, pipeline.modes_stage(model, attached.plan.body.modes,
                                                              body=body_mesh), body_mesh)
     reduced = pipeline.reduction_stage(basis, cfg.selection)
     coefficients, _ = svk_coefficients(body_mesh.mesh, reduced.fields, cfg.material)
@@ -199,6 +203,7 @@ def test_svk_gcms_follows_the_full_order_svk_reference(case):
     assert pendulum.deviation_error(t_lin, d_lin, ref, until) > 0.5
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("joint", [
     {"type": "fixed", "group": "end_x0", "name": "clamp"},
     {"type": "revolute", "group": "end_x0", "axis": [0.0, 1.0, 0.0], "name": "pin",
@@ -220,7 +225,7 @@ def test_attachment_modes_hold_the_static_response_of_the_held_body(case, joint)
     attached = parse_config(dict(pendulum.STUDY, modes={"count": 2},
                                  basis={"attachment": "scene"}, scene=table,
                                  selection={"svd_tolerance": 1e-7}))
-    with_loads = pipeline.modes_stage(model, attached.modes, body=body_mesh)
+    with_loads = pipeline.modes_stage(model, attached.plan.body.modes, body=body_mesh)
     reduced = body_from_reduced(pipeline.reduction_stage(
         pipeline.basis_stage(model, with_loads, body_mesh), attached.selection))
     static = full_held_static(full, attached.scene)

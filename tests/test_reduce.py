@@ -43,6 +43,7 @@ def square(tmp_path_factory):
     return _reduce(tmp_path_factory.mktemp("square"), SQUARE)
 
 
+@pytest.mark.slow
 def test_selection_report_and_file_agree(square):
     report, model = square
     assert SELECTION_KEYS <= set(report)
@@ -88,6 +89,7 @@ def test_reduced_model_reproduces_the_undeformed_body(square):
     assert qdot @ model.gravity @ g == pytest.approx(mass * g @ v, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_plain_basis_keeps_accuracy_but_not_conditioning(tmp_path):
     """Without orthonormalisation the same fields give the same frequencies, but Mr keeps
     the near-dependency of the Poisson-contraction fields (cond 1e11): pruning them to
@@ -98,6 +100,7 @@ def test_plain_basis_keeps_accuracy_but_not_conditioning(tmp_path):
     assert model.field_names[4].startswith("phi")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scale", [1e-3, 1e3])
 def test_a_1_mm_and_a_1_km_beam_report_the_same_finite_conditioning(tmp_path, square, scale):
     """The square beam scaled by 1e-3 and 1e3 (mesh size too): its selection report is strict
@@ -119,6 +122,7 @@ def test_a_1_mm_and_a_1_km_beam_report_the_same_finite_conditioning(tmp_path, sq
         assert report[key] == pytest.approx(reference[key], rel=10 * eps * gram_cond), key
 
 
+@pytest.mark.slow
 def test_an_unsymmetric_section(tmp_path):
     """An L section (no symmetry plane): no dependency down to 1e-6, yet cond(Mr) 5e7 before
     preconditioning; the preconditioned basis brings it to ~5e2."""
@@ -128,6 +132,7 @@ def test_an_unsymmetric_section(tmp_path):
     assert report["max_rel_frequency_error"] < 1e-4
 
 
+@pytest.mark.slow
 @pytest.mark.mpi
 def test_two_ranks_give_the_serial_reduced_model(tmp_path, square):
     report1, one = square
@@ -150,6 +155,7 @@ def test_tolerance_out_of_range_is_a_clear_error(tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.slow
 def test_slender_beam_keeps_its_poisson_fields_by_default(tmp_path):
     """L/h = 50 (the flexible pendulum's beam): in a bending pair's diagonal basis the fields
     φ_y and φ_z differ only by Poisson contraction, 1 − |cos| = 5e-7. The default

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from conftest import gcms, strict_json
-from gcms_fenicsx.dynamics.scene import parse_scene
+from gcms_fenicsx.config.scene import parse_scene
 from simulate_runs import (SCENE, assert_one_line_error, contents, output_folder, standalone,
                            study)
 
@@ -23,6 +23,7 @@ def flip_bit(path, dataset: str, index: tuple[int, int]) -> None:
         f[dataset][...] = data
 
 
+@pytest.mark.slow
 def test_a_cache_changed_on_disk_is_rebuilt_and_refused_standalone(beam6_reduced, tmp_path):
     """One flipped bit in Kr of the cached reduced.h5: ``gcms simulate`` says in one progress
     line that it cannot use it and rebuilds it (the file is written anew and reads back);
@@ -60,6 +61,7 @@ def test_work_beyond_the_machine_is_refused_before_it_starts(tmp_path, table, ke
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_a_stopped_simulation_leaves_no_plots_of_an_earlier_run(beam6_reduced, tmp_path):
     """A complete run draws trajectory.png and energy.png; a rerun whose Newton fails in its
     first step records one row, draws nothing, and the earlier plots are removed instead of
@@ -77,6 +79,7 @@ def test_a_stopped_simulation_leaves_no_plots_of_an_earlier_run(beam6_reduced, t
     assert strict_json(out / "summary.json")["complete"] is False
 
 
+@pytest.mark.slow
 def test_a_p1_mesh_that_will_lock_is_warned(tmp_path):
     """A P1 beam meshed at about two elements across its depth (predicted 30 % too stiff in
     bending, geometry.element_order_warning): ``gcms mesh`` says so and mesh.json keeps it;
@@ -93,6 +96,7 @@ def test_a_p1_mesh_that_will_lock_is_warned(tmp_path):
         assert bool(strict_json(out / "mesh.json")["warnings"]) == warned
 
 
+@pytest.mark.slow
 def test_a_count_that_cuts_a_repeated_pair_is_warned(tmp_path):
     """A square beam's bending modes come in pairs: one mode keeps half of the first pair,
     chosen by the solver, and the run says so (modes.json keeps it); two modes do not."""
@@ -123,6 +127,7 @@ def test_a_drive_that_turns_too_far_per_step_is_warned():
     assert slow.warnings() == []
 
 
+@pytest.mark.slow
 def test_a_copied_cache_is_reused_only_when_intact(beam6_reduced, tmp_path):
     """The unchanged copy of the cache is reused (its checksums hold)."""
     out = tmp_path / "out"
@@ -132,6 +137,7 @@ def test_a_copied_cache_is_reused_only_when_intact(beam6_reduced, tmp_path):
     assert run.returncode == 0 and "reusing" in run.stderr, run.stderr
 
 
+@pytest.mark.slow
 def test_spherical_joints_draw_no_empty_moment_panel(beam6_reduced, tmp_path):
     """A scene whose joints constrain no rotation draws joints.png with the force panel only
     (no empty moment panel, no legend warning); a fixed joint draws both."""
@@ -191,6 +197,7 @@ def joints_scene(joints: list[tuple[str, tuple | None]]) -> str:
     return head + tables + "\n[basis]" + rest.partition("[basis]")[2]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("joints", list(PARTLY_REDUNDANT))
 def test_partly_redundant_joints_finish_with_their_pictures(beam6_reduced, tmp_path, joints):
     """Each partly redundant joint set runs to the end, exit 0, with joints.png drawn: a
@@ -207,8 +214,8 @@ def test_partly_redundant_joints_finish_with_their_pictures(beam6_reduced, tmp_p
 
 
 def _failing_picture(monkeypatch, name: str, error: BaseException) -> None:
-    """``files.plots`` with the picture ``name`` raising ``error`` when drawn."""
-    from gcms_fenicsx.files import plots
+    """``app.plots`` with the picture ``name`` raising ``error`` when drawn."""
+    from gcms_fenicsx.app import plots
 
     def fail(traj, path):
         raise error

@@ -10,9 +10,11 @@ from petsc4py import PETSc
 from dolfinx.mesh import CellType, create_box
 
 from symmetric_mesh import symmetric_box
-from gcms_fenicsx import pipeline
+from gcms_fenicsx.app import pipeline
 from gcms_fenicsx.fe import algebra
-from gcms_fenicsx.reduction import basis, modal_basis, selection
+from gcms_fenicsx.fe import basis
+from gcms_fenicsx.files import modal_basis
+from gcms_fenicsx.reduction import selection
 from gcms_fenicsx.config.material import Material
 from gcms_fenicsx.config.modes import ModesConfig
 from gcms_fenicsx.config.selection import SelectionConfig, parse_selection

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from conftest import gcms
-from gcms_fenicsx.dynamics.results import Trajectory, read_results
+from gcms_fenicsx.files.results import Trajectory, read_results
 from gcms_fenicsx.files.reduced_model import read_reduced
 from simulate_runs import (BAD_SCENES, SCENE, assert_one_line_error, contents, non_finite_copy,
                            output_folder, study)
@@ -26,6 +26,7 @@ def reduced(beam6_reduced):
 
 # -- 8. the cached reduced model ---------------------------------------------------------------
 
+@pytest.mark.slow
 def test_simulate_reuses_the_reduced_model_until_an_upstream_table_changes(tmp_path):
     """Item 8: the first ``gcms simulate`` builds reduced.h5 (eigen-solve) and writes results,
     summary and plots; changing only [scene] reuses reduced.h5 (no eigen-solve, file not
@@ -93,6 +94,7 @@ def test_bad_scene_is_one_clear_line_and_changes_nothing(reduced, tmp_path, case
     assert contents(out) == before
 
 
+@pytest.mark.slow
 def test_non_finite_reduced_model_in_the_cache_is_rebuilt(reduced, tmp_path):
     """A reduced.h5 written with a NaN in Kr (checksums that fit it, so the content check must
     catch it), which the standalone integrator refuses (tests/dynamics/test_standalone_cli.py):
@@ -155,6 +157,7 @@ force = [0.0, 0.0, -1e12]
     assert "t = 0.001 s" in traj.message
 
 
+@pytest.mark.slow
 def test_ill_conditioned_reduced_model_is_a_clear_error(tmp_path):
     """A square beam reduced without preconditioning ([selection] orthonormalize = false,
     cond(Mr) = 6e11) makes the integrator refuse its mass matrix ("numerically singular",

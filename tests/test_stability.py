@@ -67,6 +67,7 @@ def threshold_ratio(row: dict) -> float:
     return min(row["singular_values"]) / (1e-6 * max(row["singular_values"]))
 
 
+@pytest.mark.slow
 def test_widening_a_square_beam_by_1e_6_keeps_the_selection_and_the_swing(widened):
     """ε = 1e-6 is a new mesh (Gmsh meshes each width afresh), so what may change is what two
     meshes of one nominal size differ by, never a decision of the selection:
@@ -100,6 +101,7 @@ def test_widening_a_square_beam_by_1e_6_keeps_the_selection_and_the_swing(widene
     assert tip < 1e-8 * LENGTH, tip / LENGTH   # measured 5e-11 L
 
 
+@pytest.mark.slow
 def test_mm_t_s_gives_the_si_results(widened, tmp_path):
     """The same study in mm, t, s (lengths ×1e3, E in MPa, ρ in t/mm³, gravity in mm/s²) is the
     same problem with every quantity scaled by a power of ten: the same mesh (Gmsh scales),
@@ -128,6 +130,7 @@ def test_mm_t_s_gives_the_si_results(widened, tmp_path):
     assert mm["energy_drift_rel"] == pytest.approx(si["energy_drift_rel"], rel=1e-6)
 
 
+@pytest.mark.slow
 def test_frequencies_scale_as_sqrt_E_over_ten_decades(tmp_path):
     """E = 1e5 and 1e15 Pa on one mesh (the same mesh file, asserted): K scales by exactly
     1e10, so every frequency by 1e5; what is left is round-off amplified by the shifted
@@ -157,6 +160,7 @@ def test_frequencies_scale_as_sqrt_E_over_ten_decades(tmp_path):
     assert hi["margins"]["zero_energy"] == pytest.approx(lo["margins"]["zero_energy"], rel=1e-9)
 
 
+@pytest.mark.slow
 def test_energy_balance_of_a_long_pendulum_run_does_not_grow(tmp_path):
     """4000 steps (about 2.5 swings) of the soft flexible pendulum: the largest balance error
     of the last quarter is at most twice that of the first. A drift linear in t makes that
@@ -174,6 +178,7 @@ def test_energy_balance_of_a_long_pendulum_run_does_not_grow(tmp_path):
     assert summary["energy_drift_rel"] < 1e-4  # measured 1.2e-5 (the release transient)
 
 
+@pytest.mark.slow
 @pytest.mark.mpi
 def test_two_ranks_give_the_serial_kr_and_mr_entries(tmp_path):
     """`gcms reduce` on 1 and 2 ranks: the nodes come in another order and each mode with
@@ -193,6 +198,7 @@ def test_two_ranks_give_the_serial_kr_and_mr_entries(tmp_path):
         assert d[key] < bound, (key, d[key], bound)
 
 
+@pytest.mark.slow
 def test_the_suite_tells_a_clean_failure_from_a_broken_one(widened, tmp_path):
     """How the suite judges endings, on real ones: a bad input (ν = 0.5) into an --out holding
     a user's file ends with exit status 2, one line naming the key and --out as it was

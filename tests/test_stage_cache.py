@@ -39,6 +39,7 @@ def cached(tmp_path):
     return config, out
 
 
+@pytest.mark.slow
 def test_each_change_reruns_only_the_stages_below_it(cached):
     """[selection] alone: no mesh, no solve, mesh.msh and modes.h5 untouched; fewer modes:
     the cached solve restricted, the same frequencies; more modes: solved again on the
@@ -80,6 +81,7 @@ def test_each_change_reruns_only_the_stages_below_it(cached):
     assert stages(out) == {"mesh": "reused", "modes": "computed", "reduction": "computed"}
 
 
+@pytest.mark.slow
 def test_fresh_recomputes_every_stage_with_the_same_result(cached):
     config, out = cached
     first = read_reduced(out / "reduced.h5")
@@ -103,6 +105,7 @@ def _flip_a_byte(path: Path, dataset: str) -> None:
         f.write(bytes([byte[0] ^ 0x01]))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("damage", ["modes.h5 bit", "modes.h5 group renamed", "mesh.msh bit",
                                     "mesh.json edited", "other [mesh]"])
 def test_a_damaged_or_stale_entry_is_never_used(cached, damage):
@@ -150,6 +153,7 @@ def test_a_damaged_or_stale_entry_is_never_used(cached, damage):
     assert set(manifest) == {"mesh.msh", "mesh.json", "modes.h5", "reduced.h5"}
 
 
+@pytest.mark.slow
 def test_an_interrupted_solve_leaves_the_cache_valid(tmp_path):
     """SIGINT during the eigen-solve of ``gcms modes`` (its mesh reused): --out as it was, and
     the next command still reuses the cached mesh."""
@@ -194,6 +198,7 @@ attachment = "scene"
 """
 
 
+@pytest.mark.slow
 @pytest.mark.mpi
 def test_two_ranks_give_the_same_cache_as_one(tmp_path):
     """modes.h5 solved on two ranks holds the serial one's basis (rows in the mesh file's
@@ -229,6 +234,7 @@ def test_two_ranks_give_the_same_cache_as_one(tmp_path):
     assert stages(two) == {"mesh": "reused", "modes": "reused", "reduction": "computed"}
 
 
+@pytest.mark.slow
 def test_auto_count_reports_its_band_and_reuses_a_larger_solve(tmp_path):
     """count = "auto" on the cantilever scene (no excitation: the band is what its 1 ms step
     resolves, 100 Hz, below the beam's first mode): one mode, the band in modes.json; the
@@ -249,6 +255,7 @@ def test_auto_count_reports_its_band_and_reuses_a_larger_solve(tmp_path):
     assert stages(out)["modes"] == "reused"
 
 
+@pytest.mark.slow
 def test_attachment_modes_are_fields_of_the_cached_basis(tmp_path):
     """[basis] attachment = "scene" on the cantilever (a fixed joint: 3 forces, 3 moments):
     modes.json lists them, their fields enter the selection, and switching attachment on
@@ -328,6 +335,7 @@ def reduced_once(tmp_path_factory) -> tuple[Path, Path]:
     return config, out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("manifest", ["damaged", "missing", "empty"])
 @pytest.mark.parametrize("damage", list(DAMAGES))
 def test_without_the_manifest_every_cached_file_guards_itself(reduced_once, tmp_path,
@@ -342,7 +350,7 @@ def test_without_the_manifest_every_cached_file_guards_itself(reduced_once, tmp_
     and solved silently."""
     import shutil
 
-    from gcms_fenicsx import stage_cache
+    from gcms_fenicsx.app import stage_cache
     from gcms_fenicsx.config.study import load_config
 
     config, source = reduced_once
@@ -361,7 +369,8 @@ def test_without_the_manifest_every_cached_file_guards_itself(reduced_once, tmp_
     if stage == "mesh":
         (out / "modes.h5").unlink()
     lines: list[str] = []
-    plan = stage_cache.plan(load_config(config), out, "reduced", False, lines.append)
+    plan = stage_cache.reuse(load_config(config).plan.body, out, "reduced", False,
+                             lines.append)
     refused = [line for line in lines if name in line]
     assert len(refused) == 1, lines
     assert "again" in refused[0] or "rebuilding" in refused[0], refused
@@ -371,6 +380,7 @@ def test_without_the_manifest_every_cached_file_guards_itself(reduced_once, tmp_
     assert (plan.mesh is not None) == (stage == "modes"), lines
 
 
+@pytest.mark.slow
 def test_a_damaged_manifest_is_written_anew_and_protects_again(reduced_once, tmp_path):
     """The issue's sequence on the command line: cache.json damaged, ``gcms reduce`` reuses
     what verifies itself and writes the manifest anew listing every cached file (before: it

@@ -9,13 +9,13 @@ import tomllib
 import numpy as np
 import pytest
 
-from gcms_fenicsx import pipeline
+from gcms_fenicsx.app import pipeline
 from gcms_fenicsx.config.basis import scene_patterns
 from gcms_fenicsx.config.study import default_config_text, parse_config
-from gcms_fenicsx.dynamics.body import body_from_reduced
-from gcms_fenicsx.dynamics.run_basis import in_basis
-from gcms_fenicsx.dynamics.static_shapes import shape_model, static_shapes
-from gcms_fenicsx.dynamics.statics import held_static
+from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
+from gcms_fenicsx.dynamics.bases.run_basis import in_basis
+from gcms_fenicsx.dynamics.bases.static_shapes import shape_model, static_shapes
+from gcms_fenicsx.dynamics.constraints.statics import held_static
 
 from spin import drive_spin
 
@@ -33,13 +33,14 @@ def crankshaft(tmp_path_factory):
     cfg = parse_config(dict(raw, mesh=dict(raw["mesh"], size=0.02), modes={"count": 2},
                             basis={"attachment": "scene", "shapes": "static"},
                             selection={"svd_tolerance": 1e-7}))
-    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes,
+    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.plan.body.modes,
                                tmp_path_factory.mktemp("crankshaft"))
     model = pipeline.reduction_stage(pipeline.basis_stage(chain.assembly.model, chain.modes,
                                                           chain.body), cfg.selection)
     return cfg, model
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("load", ["scene", "spin"])
 def test_the_static_shapes_hold_the_held_bodys_static_response(crankshaft, load):
     """The full basis on the 12 static shapes (120 coordinates instead of the model's) gives
@@ -70,6 +71,7 @@ def test_the_static_shapes_hold_the_held_bodys_static_response(crankshaft, load)
     assert nose_error <= 1e-8 and reaction_error <= 1e-8, (nose_error, reaction_error)
 
 
+@pytest.mark.slow
 def test_a_shape_is_the_same_displacement_in_its_own_model(crankshaft):
     """The shape model's fields are the rigid ones and a G-orthonormal basis of the shapes'
     components, G-orthogonal to the rigid ones (G = Fᵀ Ms F); every shape lies in their span
@@ -95,6 +97,7 @@ def test_a_shape_is_the_same_displacement_in_its_own_model(crankshaft):
                                        rtol=0, atol=1e-9 * scale)
 
 
+@pytest.mark.slow
 def test_the_rotor_basis_on_the_static_shapes(crankshaft):
     """With the rotor basis the 12 shapes give three columns each beside the rigid ones (the
     issue's count: 46 instead of the full basis's 120 on the same shapes), and the basis
@@ -111,6 +114,7 @@ def test_the_rotor_basis_on_the_static_shapes(crankshaft):
     assert full.dofs == 120
 
 
+@pytest.mark.slow
 def test_a_scene_runs_on_its_static_shapes_and_says_so(crankshaft):
     """Twenty steps of the scene on the model's modes and on its static shapes in both bases:
     complete, with the summary naming the shapes and their load patterns and counting the
@@ -118,7 +122,7 @@ def test_a_scene_runs_on_its_static_shapes_and_says_so(crankshaft):
     crankshaft_reference, README.)"""
     from dataclasses import replace
 
-    from gcms_fenicsx.dynamics.simulate import simulate
+    from gcms_fenicsx.dynamics.run.simulate import simulate
 
     cfg, model = crankshaft
     scene = replace(cfg.scene, end_time_s=20 * cfg.scene.time_step_s)
@@ -146,11 +150,12 @@ def test_the_held_pendulum_is_pinned_in_its_swing_and_clamped_across_it(tmp_path
     the time step's)."""
     import math
 
-    from gcms_fenicsx.dynamics.static_shapes import held_modes, held_rows
+    from gcms_fenicsx.dynamics.bases.static_shapes import held_modes, held_rows
     from gcms_fenicsx.references import pendulum
 
     cfg = parse_config(dict(pendulum.STUDY, basis={"attachment": "scene", "shapes": "static"}))
-    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, tmp_path)
+    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.plan.body.modes,
+                               tmp_path)
     model = pipeline.reduction_stage(pipeline.basis_stage(chain.assembly.model, chain.modes,
                                                           chain.body), cfg.selection)
     body = body_from_reduced(model)

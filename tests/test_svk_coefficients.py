@@ -19,9 +19,9 @@ from conftest import gcms, gcms_reduce, mpirun
 from gcms_fenicsx.config.material import Material
 from gcms_fenicsx.config.study import parse_config
 from gcms_fenicsx.config.table import ConfigError
-from gcms_fenicsx.dynamics.body import body_from_reduced
-from gcms_fenicsx.dynamics.rotation import rotation_about
-from gcms_fenicsx.dynamics.svk import SVKLaw
+from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
+from gcms_fenicsx.numerics.rotation import rotation_about
+from gcms_fenicsx.dynamics.bodies.svk import SVKLaw
 from gcms_fenicsx.fe.mesh import read_mesh
 from gcms_fenicsx.fe.node_order import input_node_indices
 from gcms_fenicsx.files import reduced_model as rm
@@ -37,6 +37,7 @@ def reduced(tmp_path_factory):
     return folder, rm.read_reduced(folder / "reduced.h5")
 
 
+@pytest.mark.slow
 def test_reduced_energy_is_the_full_order_svk_energy(reduced):
     """For states of every size — a small and a 30 % deformation of the elastic fields, turned
     by 0.9 rad — the reduced SVK energy (from the coefficients alone) equals the SVK energy
@@ -67,6 +68,7 @@ def test_reduced_energy_is_the_full_order_svk_energy(reduced):
         assert law.energy(q) == pytest.approx(full, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_two_ranks_give_the_serial_coefficients(reduced, tmp_path):
     """The same fields on the same mesh file, summed over two ranks' cells: the coefficients
     agree with the serial ones to round-off (bound 1e-12 relative, measured 4e-17 and 1e-16:
@@ -84,6 +86,7 @@ def test_two_ranks_give_the_serial_coefficients(reduced, tmp_path):
     assert int(two["points"]) == report["quadrature_points"]
 
 
+@pytest.mark.slow
 def test_reduced_file_schema_report_and_cache(reduced, tmp_path):
     """reduced.h5 with the coefficients is schema 3, which a schema-2 reader refuses as newer;
     selection.json reports their size and time; a rerun reuses the file, and so does the same
@@ -156,7 +159,7 @@ def test_coefficient_sums_are_the_pointwise_energy_also_for_negative_poisson_rat
     ½ pᵀAp + bᵀp + c equals
     Σ w (λ/2 (tr E)² + μ E : E) with E = ½ (Dᵀ P D − I) evaluated point by point, to 1e-12
     relative; also for ν < 0, where λ < 0 (a square root of λ would give NaN)."""
-    from gcms_fenicsx.dynamics.svk import packing
+    from gcms_fenicsx.numerics.packing import packing
     from gcms_fenicsx.fe.svk_coefficients import GramSums
     rng = np.random.default_rng(5)
     nf = 7

@@ -34,10 +34,10 @@ def main() -> None:
     quiet()
     import numpy as np
 
-    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.app import pipeline
     from gcms_fenicsx.config.study import parse_config
-    from gcms_fenicsx.dynamics.body import body_from_reduced
-    from gcms_fenicsx.dynamics.simulate import simulate_body
+    from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
+    from gcms_fenicsx.dynamics.run.simulate import simulate_body
     from gcms_fenicsx.fe.node_groups import group_weights
     from gcms_fenicsx.references import pendulum
     from gcms_fenicsx.references.full_order import full_order_body, sparse_factorization
@@ -45,7 +45,7 @@ def main() -> None:
     cfg = parse_config(dict(pendulum.STUDY, modes={"count": max(MODE_COUNTS)},
                             basis={"attachment": "scene"}), "flexible pendulum")
     with temporary_folder() as tmp:
-        chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, tmp)
+        chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.plan.body.modes, tmp)
     model, body = chain.assembly.model, chain.body
     full = full_order_body(model, group_weights(body, model.Vs))
     rigid = pendulum.rigid_pendulum(full, np.array(cfg.scene.gravity), cfg.scene.end_time_s)
@@ -61,7 +61,7 @@ def main() -> None:
     t_ref, d_ref, ref_s = deviation(full, factorize=sparse_factorization)
     with_attachment = pipeline.basis_stage(model, chain.modes, body)
     plain = pipeline.basis_stage(model, pipeline.modes_stage(
-        model, replace(cfg.modes, attachment=None)), body)
+        model, replace(cfg.plan.body.modes, attachment=None)), body)
     rows = []
     for nm in MODE_COUNTS:
         for label, basis in (("none", plain), ("scene", with_attachment)):

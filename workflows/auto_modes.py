@@ -35,17 +35,17 @@ def main() -> None:
     quiet()
     import numpy as np
 
-    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.app import pipeline
     from gcms_fenicsx.config.study import parse_config
-    from gcms_fenicsx.dynamics.simulate import simulate_to_file
+    from gcms_fenicsx.dynamics.run.simulate import simulate_to_file
 
     raw = default_study(basis={"attachment": "none"})
     cfg = parse_config(raw)
     auto = parse_config(dict(raw, modes={"count": "auto"}))
-    band = auto.modes.band
+    band = auto.plan.body.modes.band
     with temporary_folder() as tmp:
         chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material,
-                                   replace(cfg.modes, count=REFERENCE_MODES), tmp)
+                                   replace(cfg.plan.body.modes, count=REFERENCE_MODES), tmp)
         every = pipeline.basis_stage(chain.assembly.model, chain.modes, chain.body)
         hz = every.elastic_frequencies_hz
         chosen = max(1, int(np.count_nonzero(hz < band.max_frequency_hz)))

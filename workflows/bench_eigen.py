@@ -52,7 +52,7 @@ def worker(body: str, order: int, size: float, scipy_max: int) -> dict:
     import numpy as np
     from mpi4py import MPI
 
-    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.app import pipeline
     from gcms_fenicsx.config.study import parse_config
     from gcms_fenicsx.fe import factor
 
@@ -67,7 +67,7 @@ def worker(body: str, order: int, size: float, scipy_max: int) -> dict:
         comm.barrier()  # every rank has read the mesh before rank 0 removes the folder
     assembled = pipeline.assembly_stage(body_mesh.mesh, cfg.material)
     model, assembly = assembled.model, assembled.wall_time_s
-    modes = pipeline.modes_stage(model, cfg.modes)
+    modes = pipeline.modes_stage(model, cfg.plan.body.modes)
     t0 = time.perf_counter()
     factor.inertia_below(model, modes.shift)
     factorization = time.perf_counter() - t0

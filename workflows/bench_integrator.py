@@ -57,11 +57,11 @@ BASELINE_TIME_S = 0.1   # the assembled baseline is slow: its rate is measured o
 def bodies():
     """(material, Nm, selection, reduced model or None, body or failure message) for every
     case, one mesh and one solve per material."""
-    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.app import pipeline
     from gcms_fenicsx.config.material import parse_material
     from gcms_fenicsx.config.selection import SelectionConfig
     from gcms_fenicsx.config.study import parse_config
-    from gcms_fenicsx.dynamics.body import body_from_reduced
+    from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
     from gcms_fenicsx.reduction.reduce import ReductionError
     from gcms_fenicsx.references import pendulum
 
@@ -73,7 +73,7 @@ def bodies():
     for material, E in MATERIALS_E_PA.items():
         steel_or_soft = parse_material(dict(pendulum.STUDY["material"], E=E))
         model = pipeline.assembly_stage(body_mesh.mesh, steel_or_soft).model
-        every = pipeline.basis_stage(model, pipeline.modes_stage(model, cfg.modes), body_mesh)
+        every = pipeline.basis_stage(model, pipeline.modes_stage(model, cfg.plan.body.modes), body_mesh)
         for nm in MODE_COUNTS:
             variants = (("default", cfg.selection), ("none", none))
             for label, settings in variants[:2 if material == "soft" else 1]:
@@ -89,8 +89,8 @@ def bodies():
 def timed(body, scene, jacobian: str, repeat: int) -> dict:
     """Best of ``repeat`` runs in this process: steps/s, µs per step, Newton iterations; or
     the failure."""
-    from gcms_fenicsx.dynamics.errors import IntegrationError
-    from gcms_fenicsx.dynamics.simulate import simulate_body
+    from gcms_fenicsx.dynamics.stepping.errors import IntegrationError
+    from gcms_fenicsx.dynamics.run.simulate import simulate_body
 
     sc = replace(scene, solver=replace(scene.solver, jacobian=jacobian),
                  end_time_s=scene.end_time_s if jacobian == "rotated" else BASELINE_TIME_S)
@@ -195,17 +195,17 @@ def before_after(model_path: Path, scene_name: str, before: Path, rounds: int) -
 def default_scene_model(folder: Path) -> tuple[Path, int]:
     """The reduced model of ``gcms run``'s built-in study, through the pipeline's stages, and
     its mode count."""
-    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.app import pipeline
     from gcms_fenicsx.config.study import parse_config
     from gcms_fenicsx.files.reduced_model import write_reduced
 
     cfg = parse_config(default_study(basis={"attachment": "none"}))
-    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, folder)
+    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.plan.body.modes, folder)
     reduction = pipeline.reduction_stage(
         pipeline.basis_stage(chain.assembly.model, chain.modes, chain.body), cfg.selection)
     path = folder / "default_scene.h5"
     write_reduced(path, reduction)
-    return path, cfg.modes.count
+    return path, cfg.plan.body.modes.count
 
 
 def main() -> None:
@@ -220,7 +220,7 @@ def main() -> None:
         return
     checkout(options, args.before)
     quiet()
-    from gcms_fenicsx.dynamics.scene import parse_scene
+    from gcms_fenicsx.config.scene import parse_scene
     from gcms_fenicsx.files.reduced_model import write_reduced
     from gcms_fenicsx.references import pendulum
 

@@ -60,7 +60,7 @@ def main() -> None:
     options.add_argument("--modes", type=int, nargs="+", default=list(MODE_COUNTS))
     args = options.parse_args()
     quiet()
-    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.app import pipeline
     from gcms_fenicsx.config.basis import scene_patterns
     from gcms_fenicsx.config.study import parse_config
 
@@ -70,10 +70,10 @@ def main() -> None:
         for nm in args.modes:
             cfg = parse_config(dict(raw, modes={"count": nm}))
             static = scene_patterns(replace(cfg.basis, shapes="static"), cfg.scene)
-            chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes,
+            chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.plan.body.modes,
                                        tmp)
             for attachment in ATTACHMENT:
-                loads = cfg.modes.attachment if attachment == "scene" else ()
+                loads = cfg.plan.body.modes.attachment if attachment == "scene" else ()
                 modes = chain.modes if loads else replace(chain.modes, attachment_labels=())
                 basis = pipeline.basis_stage(chain.assembly.model, modes, chain.body)
                 model = pipeline.reduction_stage(basis, cfg.selection)

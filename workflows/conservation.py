@@ -36,9 +36,9 @@ from common import REPO, log, parser, temporary_folder, write_record
 
 sys.path.insert(0, str(REPO))
 
-from gcms_fenicsx.dynamics.body import Body, body_from_reduced  # noqa: E402
-from gcms_fenicsx.dynamics.scene import parse_scene  # noqa: E402
-from gcms_fenicsx.dynamics.simulate import modal_history, simulate_body  # noqa: E402
+from gcms_fenicsx.dynamics.bodies.body import Body, body_from_reduced  # noqa: E402
+from gcms_fenicsx.config.scene import parse_scene  # noqa: E402
+from gcms_fenicsx.dynamics.run.simulate import modal_history, simulate_body  # noqa: E402
 from gcms_fenicsx.references.spectra import peak_frequency_hz  # noqa: E402
 from gcms_fenicsx.files.reduced_model import ReducedModel, read_reduced  # noqa: E402
 

@@ -6,7 +6,7 @@ study's mesh, ``references.full_order``, a sparse LU of the iteration matrix), o
 scene: it starts at rest in its static equilibrium (solved on the full model) and its drive
 and gas forces rise in smoothly, so the 50 µs step resolves its outputs. Two comparisons:
 
-- statics (``dynamics.statics``): the body held by the scene's joints, drive included, under
+- statics (``dynamics.constraints.statics``): the body held by the scene's joints, drive included, under
   gravity and the gas forces once risen in ("scene") and under the centrifugal load at the drive's
   3000 rpm ("spin"): the nose's displacement and the bearing reactions of each reduced model
   against the full model's; with attachment modes the full model's response lies in the
@@ -63,13 +63,13 @@ def reference(cfg, folder: Path, time_step_s: float) -> tuple[Any, dict, float]:
     """(full body, outputs, seconds) of reference (a) at ``time_step_s``."""
     from dataclasses import replace
 
-    from gcms_fenicsx import pipeline
-    from gcms_fenicsx.dynamics.simulate import simulate_body
+    from gcms_fenicsx.app import pipeline
+    from gcms_fenicsx.dynamics.run.simulate import simulate_body
     from gcms_fenicsx.fe.node_groups import group_weights
     from gcms_fenicsx.references.full_order import (full_order_body, sparse_factorization,
                                                     sparse_kkt_solve)
 
-    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, folder)
+    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.plan.body.modes, folder)
     model = chain.assembly.model
     full = full_order_body(model, group_weights(chain.body, model.Vs))
     t0 = time.perf_counter()
@@ -85,8 +85,8 @@ def static_loads(cfg) -> dict[str, Any]:
     """Per static load case, body ↦ its load ("scene": the scene's gravity and loads once risen
     in, ``Scene.loads_risen_s``; "spin": the centrifugal load at the drive's angular velocity)."""
     from gcms_fenicsx.config.basis import AttachmentLoad
-    from gcms_fenicsx.dynamics.loads import external_forces
-    from gcms_fenicsx.dynamics.rotor_basis import generalized_loads
+    from gcms_fenicsx.dynamics.bodies.loads import external_forces
+    from gcms_fenicsx.dynamics.bases.rotor_basis import generalized_loads
 
     drive = cfg.scene.joints[0]
     unit = AttachmentLoad(drive.group, "centrifugal", drive.axis)
@@ -97,7 +97,7 @@ def static_loads(cfg) -> dict[str, Any]:
 
 
 def full_statics(full, cfg) -> dict[str, Any]:
-    """The full model's static responses (``dynamics.statics``) per load case."""
+    """The full model's static responses (``dynamics.constraints.statics``) per load case."""
     from gcms_fenicsx.references.full_order import full_held_static
 
     return {case: full_held_static(full, cfg.scene, load(full))
@@ -108,7 +108,7 @@ def statics(full, exact: dict[str, Any], reduced, cfg) -> dict[str, dict[str, fl
     """Per load case, the reduced model's nose displacement and bearing reactions against the
     full model's (``exact``): max |difference| / |full| (nose: its Euclidean norm; reactions:
     the largest)."""
-    from gcms_fenicsx.dynamics.statics import held_static
+    from gcms_fenicsx.dynamics.constraints.statics import held_static
 
     out = {}
     for case, load in static_loads(cfg).items():
@@ -129,7 +129,7 @@ def main() -> None:
     args = options.parse_args()
     quiet()
     from gcms_fenicsx.config.study import parse_config
-    from gcms_fenicsx.dynamics.body import body_from_reduced
+    from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
 
     rows: list[dict] = []
     curves: dict[str, Any] = {}

@@ -60,7 +60,7 @@ SVK_TOLERANCE = 1e-8
 
 def setup(quick: bool):
     """Mesh, assembly, the free-free modes (largest Nm), node groups: everything shared."""
-    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.app import pipeline
     from gcms_fenicsx.config.study import parse_config
     from gcms_fenicsx.fe.node_groups import group_weights
     from gcms_fenicsx.references import pendulum
@@ -72,8 +72,8 @@ def setup(quick: bool):
         body_mesh = pipeline.body_mesh(pipeline.mesh_stage(cfg.geometry, cfg.mesh, tmp))
     t0 = time.perf_counter()
     model = pipeline.assembly_stage(body_mesh.mesh, cfg.material).model
-    modes = {"none": pipeline.modes_stage(model, cfg.modes),
-             "scene": pipeline.modes_stage(model, attached.modes, body=body_mesh)}
+    modes = {"none": pipeline.modes_stage(model, cfg.plan.body.modes),
+             "scene": pipeline.modes_stage(model, attached.plan.body.modes, body=body_mesh)}
     offline_s = time.perf_counter() - t0
     groups = group_weights(body_mesh, model.Vs)
     scene = cfg.scene if not quick else replace(cfg.scene, end_time_s=0.3)
@@ -83,10 +83,10 @@ def setup(quick: bool):
 def gcms_body(model, modes, body_mesh, nm: int, tolerance: float | None, svk: bool = False):
     """(body, reduction report, reduction wall time, SVK law and its report) for nm modes at
     one tolerance; the law only for ``svk``, its coefficients' time inside the wall time."""
-    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.app import pipeline
     from gcms_fenicsx.config.selection import SelectionConfig
-    from gcms_fenicsx.dynamics.body import body_from_reduced
-    from gcms_fenicsx.dynamics.svk import SVKLaw
+    from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
+    from gcms_fenicsx.dynamics.bodies.svk import SVKLaw
     from gcms_fenicsx.fe.svk_coefficients import svk_coefficients
 
     selection = SelectionConfig() if tolerance is None else \
@@ -104,8 +104,8 @@ def gcms_body(model, modes, body_mesh, nm: int, tolerance: float | None, svk: bo
 
 
 def run(body, scene, law=None, **kwargs) -> dict:
-    from gcms_fenicsx.dynamics.simulate import simulate_body
-    from gcms_fenicsx.dynamics.svk import svk_state
+    from gcms_fenicsx.dynamics.run.simulate import simulate_body
+    from gcms_fenicsx.dynamics.bodies.svk import svk_state
 
     if law is not None:
         kwargs["elastic"] = partial(svk_state, body, law)
@@ -216,7 +216,7 @@ def study(damping: float, model, full, rigid, cases: list[dict], scene) -> dict:
 
 def stiffness_sweep(cfg, body_mesh, groups, scene, quick: bool) -> list[dict]:
     """(a), (b) and GCMS (Nm = 10, 20) at stiffer materials: where GCMS meets SVK."""
-    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.app import pipeline
     from gcms_fenicsx.references import pendulum
     from gcms_fenicsx.references.full_order import full_order_body
     from gcms_fenicsx.config.material import Material
@@ -226,7 +226,7 @@ def stiffness_sweep(cfg, body_mesh, groups, scene, quick: bool) -> list[dict]:
         log(f"[sweep] E = {E:.0e} Pa")
         material = Material(E=E, nu=cfg.material.nu, rho=cfg.material.rho)
         model = pipeline.assembly_stage(body_mesh.mesh, material).model
-        modes = pipeline.modes_stage(model, replace(cfg.modes, count=20))
+        modes = pipeline.modes_stage(model, replace(cfg.plan.body.modes, count=20))
         full = full_order_body(model, groups)
         rigid = pendulum.rigid_pendulum(full, np.array(scene.gravity), scene.end_time_s)
         until = min(rigid.half_period_s, scene.end_time_s)

@@ -59,14 +59,14 @@ def studies(quick: bool) -> dict[str, dict]:
 
 
 def run_case(name: str, table: dict, folder: Path) -> dict:
-    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.app import pipeline
     from gcms_fenicsx.config.selection import SelectionConfig
     from gcms_fenicsx.config.study import parse_config
     from gcms_fenicsx.reduction import selection
     from gcms_fenicsx.reduction.reduce import ReductionError
 
     cfg = parse_config(table, name)
-    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, folder)
+    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.plan.body.modes, folder)
     model, body, all_modes = chain.assembly.model, chain.body, chain.modes
     out = {"case": name, "ndofs": model.ndofs, "eigensolve_s": all_modes.timings_s["eigensolve"],
            "frequencies_hz": all_modes.elastic_frequencies_hz.tolist(), "by_modes": {},

@@ -75,15 +75,15 @@ def sweep(case: str, quick: bool) -> list[dict[str, Any]]:
 
 def pendulum_reference(folder: Path) -> dict:
     """Reference (a) on the study's mesh: the tip deviation and the rigid pendulum."""
-    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.app import pipeline
     from gcms_fenicsx.config.study import parse_config
-    from gcms_fenicsx.dynamics.simulate import simulate_body
+    from gcms_fenicsx.dynamics.run.simulate import simulate_body
     from gcms_fenicsx.fe.node_groups import group_weights
     from gcms_fenicsx.references import pendulum
     from gcms_fenicsx.references.full_order import full_order_body, sparse_factorization
 
     cfg = parse_config(dict(pendulum.STUDY, basis={"attachment": "none"}))
-    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, folder)
+    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.plan.body.modes, folder)
     model = chain.assembly.model
     full = full_order_body(model, group_weights(chain.body, model.Vs))
     rigid = pendulum.rigid_pendulum(full, np.array(cfg.scene.gravity), cfg.scene.end_time_s)
@@ -96,12 +96,12 @@ def pendulum_error(reduced, cfg, ref: dict, basis: str, static=None
                    ) -> tuple[float, float, int]:
     """(error against (a), simulation seconds, coordinates) of one reduced pendulum in
     ``basis`` (on the static shapes of the scene's ``static`` patterns, if given)."""
-    from gcms_fenicsx.dynamics.simulate import simulate
+    from gcms_fenicsx.dynamics.run.simulate import simulate
     from gcms_fenicsx.references import pendulum
 
     t0 = time.perf_counter()
     traj, summary = simulate(reduced, cfg.scene, basis=basis,
-                             attachment=cfg.modes.attachment or (), static=static)
+                             attachment=cfg.plan.body.modes.attachment or (), static=static)
     online = time.perf_counter() - t0
     if not summary["complete"]:
         return float("nan"), online, summary["reduced_dofs"]

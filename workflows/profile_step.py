@@ -103,13 +103,13 @@ def stage_timings(model_path: Path) -> dict:
     import numpy as np
 
     from gcms_fenicsx.dynamics import parse_scene, read_reduced, simulate_body
-    from gcms_fenicsx.dynamics.body import body_from_reduced
-    from gcms_fenicsx.dynamics.capacity import memory_capacity
-    from gcms_fenicsx.dynamics.corotated import elastic_state
-    from gcms_fenicsx.dynamics.lapack import inverse, svd
-    from gcms_fenicsx.dynamics.recorder import Recorder
-    from gcms_fenicsx.dynamics.results import MemorySink
-    from gcms_fenicsx.dynamics.simulate import prepare_run
+    from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
+    from gcms_fenicsx.dynamics.run.capacity import memory_capacity
+    from gcms_fenicsx.dynamics.bodies.corotated import elastic_state
+    from gcms_fenicsx.numerics.lapack import inverse, svd
+    from gcms_fenicsx.dynamics.run.recorder import Recorder
+    from gcms_fenicsx.files.results import MemorySink
+    from gcms_fenicsx.dynamics.run.simulate import prepare_run
     from gcms_fenicsx.references import pendulum
 
     body = body_from_reduced(read_reduced(str(model_path)))
@@ -219,14 +219,14 @@ def stage_table(case: str, timing: dict) -> str:
 
 def models(folder: Path) -> dict[str, Path]:
     """The soft pendulum's reduced models for MODE_COUNTS, written to ``folder``."""
-    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.app import pipeline
     from gcms_fenicsx.config.study import parse_config
     from gcms_fenicsx.files.reduced_model import write_reduced
     from gcms_fenicsx.references import pendulum
 
     cfg = parse_config(dict(pendulum.STUDY, modes={"count": max(MODE_COUNTS)},
                             basis={"attachment": "none"}))
-    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, folder)
+    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.plan.body.modes, folder)
     paths = {}
     every = pipeline.basis_stage(chain.assembly.model, chain.modes, chain.body)
     for nm in MODE_COUNTS:

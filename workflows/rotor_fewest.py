@@ -30,14 +30,14 @@ from common.crankshaft import BASES, default_study, errors, percents
 from common.rotor import case, table
 
 #: The default study's mode count: the static shapes with attachment modes do not depend on
-#: it (``dynamics.static_shapes``), only the reduced model they are solved in does.
+#: it (``dynamics.bases.static_shapes``), only the reduced model they are solved in does.
 MODES = 10
 
 
 def main() -> None:
     args = parser(__doc__, out="docs/rotor_fewest", repeat=3).parse_args()
     quiet()
-    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.app import pipeline
     from gcms_fenicsx.config.basis import scene_patterns
     from gcms_fenicsx.config.study import parse_config
 
@@ -48,12 +48,12 @@ def main() -> None:
                 "static, without gravity": tuple(ld for ld in patterns.loads
                                                  if ld.kind != "gravity")}
     with temporary_folder() as tmp:
-        chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, tmp)
+        chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.plan.body.modes, tmp)
         model = pipeline.reduction_stage(
             pipeline.basis_stage(chain.assembly.model, chain.modes, chain.body), cfg.selection)
     rows, runs = [], {}
     for name, loads in variants.items():
-        row, runs[name] = case(model, cfg.scene, args.repeat, cfg.modes.attachment,
+        row, runs[name] = case(model, cfg.scene, args.repeat, cfg.plan.body.modes.attachment,
                                replace(patterns, loads=loads))
         rows.append(dict(modes=MODES, attachment="scene", shapes=name,
                          patterns=[f"{ld.kind} {ld.group} {list(ld.direction)}" for ld in loads],

@@ -88,7 +88,7 @@ def case_study(quick: bool) -> tuple[dict, dict]:
 
 def tip_in_hub_frame(traj, drive, tip0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(u, v): the tip's axial and transverse deflection in the hub frame at each recorded time."""
-    from gcms_fenicsx.dynamics.rotation import rotation_about
+    from gcms_fenicsx.numerics.rotation import rotation_about
 
     u, v = [], []
     for t, x in zip(traj.time, traj.groups["end_xL"]["position"]):
@@ -103,11 +103,11 @@ def main() -> None:
     args = parser(__doc__, out="docs/spin_up_beam",
                   quick="half the ramp (a smoke run)").parse_args()
     quiet()
-    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.app import pipeline
     from gcms_fenicsx.config.study import parse_config
-    from gcms_fenicsx.dynamics.body import body_from_reduced
-    from gcms_fenicsx.dynamics.simulate import simulate_body
-    from gcms_fenicsx.dynamics.svk import SVKLaw, svk_state
+    from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
+    from gcms_fenicsx.dynamics.run.simulate import simulate_body
+    from gcms_fenicsx.dynamics.bodies.svk import SVKLaw, svk_state
     from gcms_fenicsx.fe.node_groups import group_weights
     from gcms_fenicsx.fe.svk_coefficients import svk_coefficients
     from gcms_fenicsx.references.full_order import (full_order_body, sparse_factorization,
@@ -121,7 +121,7 @@ def main() -> None:
         f"rad/s, T = {numbers['ramp_time_s']:.2f} s, h = {numbers['time_step_s']:.2e} s, "
         f"{scene.steps} steps")
     with temporary_folder() as tmp:
-        chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, tmp)
+        chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.plan.body.modes, tmp)
     model, body_mesh = chain.assembly.model, chain.body
     full = full_order_body(model, group_weights(body_mesh, model.Vs))
     tip0 = full.groups["end_xL"].center_m

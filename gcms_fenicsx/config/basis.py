@@ -7,7 +7,7 @@ direction when a fixed joint without a drive holds every rotation; its component
 plane ⊥ a and along a when the joints let the body turn about a only; x, y and z otherwise),
 and a unit moment about every axis a joint holds the group's rotation about (two for a
 revolute joint, three for a fixed one, one more for a drive), distributed over the group as that
-joint's moment row distributes its reaction (the lever the row takes, ``joints.lever``, which
+joint's moment row distributes its reaction (the lever the row takes, ``numerics.group_geometry.lever``, which
 depends on the axis the joint turns about: ``turning``), and, for every axis the scene spins
 the body about (a drive's, or a revolute joint's the initial angular velocity has a part
 along), the centrifugal load of spinning about it at 1 rad/s (a pendulum's swing, slow
@@ -26,14 +26,14 @@ for a scene.
 ``kind`` is the basis the scene runs in (docs/design.md §7.1): ``"full"`` (default: nine
 columns per mode), ``"rotor"`` (three per mode, for joints that leave only rotation about one
 axis; refused naming the joints otherwise, when the study is read) or ``"auto"`` (the rotor
-basis when the joints allow it, else the full one; ``dynamics.basis_choice``). It does not
+basis when the joints allow it, else the full one; ``config.basis_choice``). It does not
 change the reduced model: the rotor basis is made from it when the scene runs
-(``dynamics.run_basis``).
+(``dynamics.bases.run_basis``).
 
 ``shapes`` is what the basis deforms along: ``"modes"`` (default: the model's elastic and
 attachment modes) or ``"static"``: the modes of the body held by its joints below the band of
 frequencies the scene excites and its static responses to the scene's load patterns
-(:func:`scene_patterns`, ``dynamics.static_shapes``), made from the reduced model when the
+(:func:`scene_patterns`, ``dynamics.bases.static_shapes``), made from the reduced model when the
 scene runs (it does not change either). The default crankshaft: no held mode below its
 150 Hz band, 12 responses, 46 coordinates in the rotor basis, 120 in the full one (282 on the
 modes). No NumPy.
@@ -46,8 +46,8 @@ from typing import Any, Mapping
 
 from gcms_fenicsx.config.scene_band import scene_band
 from gcms_fenicsx.config.table import ConfigError, Table
-from gcms_fenicsx.dynamics.basis_choice import PARALLEL, off_axis
-from gcms_fenicsx.dynamics.scene import Scene
+from gcms_fenicsx.config.basis_choice import PARALLEL, off_axis
+from gcms_fenicsx.config.scene import Scene
 
 ATTACHMENT = ("auto", "none", "scene")
 KINDS = ("auto", "full", "rotor")
@@ -115,7 +115,7 @@ def attachment_loads(cfg: BasisConfig, scene: Scene | None) -> tuple[AttachmentL
 
 @dataclass(frozen=True)
 class ScenePatterns:
-    """What a scene's static shapes are made of (``dynamics.static_shapes``): its load
+    """What a scene's static shapes are made of (``dynamics.bases.static_shapes``): its load
     patterns (:func:`static_loads`) and the band of frequencies it excites
     (``config.scene_band``), below which the held body's modes are kept as well."""
 
@@ -134,7 +134,7 @@ def scene_patterns(cfg: BasisConfig, scene: Scene | None) -> ScenePatterns | Non
 
 
 def static_loads(cfg: BasisConfig, scene: Scene | None) -> tuple[AttachmentLoad, ...]:
-    """The load patterns of ``shapes = "static"`` (``dynamics.static_shapes``), () for
+    """The load patterns of ``shapes = "static"`` (``dynamics.bases.static_shapes``), () for
     "modes": every scene load along the directions it takes in the body's frame (as for the
     attachment modes), gravity likewise, and for the rotation about the axis a the joints
     leave, its angular acceleration ("tangential" about a) and, when the scene spins the body,
@@ -233,7 +233,7 @@ def _load_directions(force: tuple[float, float, float], turning: str | tuple
 
 def _moments(joint: Any) -> list[AttachmentLoad]:
     """The unit moments of a joint's moment rows (``Joint.moment_rows``), in the frame and with
-    the levers those rows take (``dynamics.joints``)."""
+    the levers those rows take (``dynamics.constraints.joints``)."""
     axis = AXES[0] if joint.axis is None else joint.axis
     frame = (*_perpendicular(axis), axis) if joint.axis is not None else AXES
     return [AttachmentLoad(joint.group, "moment", frame[k], axis if blind else None)

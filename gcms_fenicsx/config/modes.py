@@ -1,7 +1,11 @@
 """The ``[modes]`` table: which free-free modes the eigen-solve returns, and how accurately:
-``count`` (an integer, or "auto": the scene's band) or ``max_frequency_hz``."""
+``count`` (an integer, or "auto": the scene's band) or ``max_frequency_hz``. The study's plan
+resolves "auto" and adds the attachment loads (``config.plan.modes_request``); the rules a
+request applies to a spectrum — how many modes it takes, how it is named in messages — are
+its methods, used by the solve and by the cache alike."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Mapping
 
@@ -32,6 +36,30 @@ class ModesConfig:
     @property
     def auto(self) -> bool:
         return self.band is not None
+
+    @property
+    def cut(self) -> float | None:
+        """(2π max_frequency_hz)², the eigenvalue a band ends at (rad²/s²); None for a count."""
+        return None if self.max_frequency_hz is None else \
+            (2.0 * math.pi * self.max_frequency_hz) ** 2
+
+    def count_from(self, below_cut: int) -> int:
+        """The elastic modes the request takes when ``below_cut`` elastic eigenvalues lie below
+        its cut: ``count``; or, for a band, those, at least one with ``count = "auto"`` (the
+        scene's band below the first mode keeps that one)."""
+        if self.max_frequency_hz is None:
+            assert self.count is not None
+            return self.count
+        return max(below_cut, 1) if self.auto else below_cut
+
+    def named(self) -> tuple[str, object]:
+        """The study key and value that asked for the modes, for messages."""
+        if self.count is not None:
+            return "[modes] count", self.count
+        if self.band is not None:
+            return "[modes] count", (f'"auto" (the band up to {self.band.max_frequency_hz:.4g} '
+                                     f"Hz, set by the scene's {self.band.set_by})")
+        return "[modes] max_frequency_hz", self.max_frequency_hz
 
 
 def parse_modes(raw: Mapping[str, Any] | None) -> ModesConfig:

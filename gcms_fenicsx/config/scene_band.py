@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from gcms_fenicsx.dynamics.scene import Scene
+from gcms_fenicsx.config.scene import Scene
 
 #: Elastic modes up to this multiple of the highest excitation frequency are kept.
 BAND_FACTOR = 2.0

@@ -9,16 +9,15 @@ Nothing in this package imports dolfinx, PETSc, MPI, Gmsh or SciPy, so a reduced
 
 or from the shell: ``python -m gcms_fenicsx.dynamics reduced.h5 study.toml --out DIR``.
 
-Modules: ``rotation`` (polar decomposition and its rate), ``body`` (the GCMS body),
-``corotated`` (elastic energy, forces, exact tangent), ``joints`` (linear constraints),
-``loads``, ``scene`` (the [scene] table), ``initial`` (the initial mode shape),
-``integrator`` (generalized-α and Newton), ``recorder`` and ``results`` (what is kept,
-results.h5), ``budget`` (whether the results fit), ``simulate`` (composition); the rotor
-basis: ``rotor``, ``rotor_basis``, ``basis_choice``, ``run_basis``.
+Sub-packages by role: ``bodies`` (the body, its elastic laws, damping and loads),
+``constraints`` (joints and the linear algebra they bring), ``stepping`` (generalized-α,
+Newton, the initial state), ``bases`` (the rotor basis and the static shapes) and ``run``
+(recording and the composition of a run). The [scene] table is ``config.scene``'s, the
+results file ``files.results``'s.
 """
-from gcms_fenicsx.dynamics.results import ResultsError, Trajectory, read_results, write_results
-from gcms_fenicsx.dynamics.scene import Scene, SceneError, parse_scene
-from gcms_fenicsx.dynamics.simulate import simulate, simulate_body, simulate_to_file
+from gcms_fenicsx.files.results import ResultsError, Trajectory, read_results, write_results
+from gcms_fenicsx.config.scene import Scene, SceneError, parse_scene
+from gcms_fenicsx.dynamics.run.simulate import simulate, simulate_body, simulate_to_file
 from gcms_fenicsx.files.reduced_model import ReducedModelError, read_reduced
 
 __all__ = ["ReducedModelError", "ResultsError", "Scene", "SceneError", "Trajectory",

@@ -1,7 +1,7 @@
 """``python -m gcms_fenicsx.dynamics REDUCED.h5 STUDY.toml --out DIR``: the [scene] of a study
 on an exported reduced model, with NumPy and h5py only (no dolfinx, PETSc, MPI or Gmsh).
 
-Writes DIR/results.h5 and DIR/summary.json (``commands.simulate_model``); exit status 2 for
+Writes DIR/results.h5 and DIR/summary.json (``dynamics.run.study_run.simulate_model``); exit status 2 for
 bad input, 1 when the simulation stops early (its results up to there are kept, marked
 incomplete), 130/143 when interrupted (DIR as it was).
 """
@@ -11,9 +11,9 @@ import argparse
 import sys
 from pathlib import Path
 
-from gcms_fenicsx.commands import SimulationIncomplete, simulate_model
+from gcms_fenicsx.dynamics.run.study_run import SimulationIncomplete, simulate_model
 from gcms_fenicsx.config.table import ConfigError
-from gcms_fenicsx.dynamics.scene import SceneError
+from gcms_fenicsx.config.scene import SceneError
 from gcms_fenicsx.files.reduced_model import ReducedModelError
 from gcms_fenicsx.runtime.errors import ComputationFailed
 from gcms_fenicsx.runtime.interrupts import Interrupted, interruptible

@@ -1,12 +1,12 @@
 """The loads of attachment modes as nodal vectors: unit forces and moments at node groups,
 and the centrifugal load of a spin.
 
-Each is the load a joint's row (or a scene load) puts on the group (``dynamics.joints``), so
+Each is the load a joint's row (or a scene load) puts on the group (``dynamics.constraints.joints``), so
 the reactions of the joints are combinations of them. A unit force along d at group G acts
 on the group's weighted mean position (the point joints and loads act on, ``node_groups``):
 f_i = w_i d, the same distribution a scene load of 1 N has. A unit moment about c is the load
 conjugate to the joint's moment row (c × d) · L(q) d, L the group's least-squares linear map
-(``body.group_rows``) and d its lever (``joints.moment_lever``, with the joint's turning axis):
+(``body.group_rows``) and d its lever (``numerics.group_geometry.moment_lever``, with the joint's turning axis):
 
     f_i = w_i (r_i · S⁺ d) (c × d),    S = Σ_i w_i r_i r_iᵀ,  r_i = x_i − x̄,
 
@@ -22,8 +22,7 @@ import numpy as np
 from mpi4py import MPI
 
 from gcms_fenicsx.config.basis import AttachmentLoad
-from gcms_fenicsx.dynamics.body import group_span
-from gcms_fenicsx.dynamics.joints import moment_lever
+from gcms_fenicsx.numerics.group_geometry import group_span, moment_lever
 from gcms_fenicsx.fe.assembly import FEModel
 from gcms_fenicsx.fe.mass import mass_dense
 from gcms_fenicsx.fe.mesh import BodyMesh

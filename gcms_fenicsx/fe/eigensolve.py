@@ -48,7 +48,7 @@ from gcms_fenicsx.fe.mass import kron_mass_operator, mass_dense, mass_properties
 from gcms_fenicsx.fe.modes import Modes
 from gcms_fenicsx.fe.static_response import static_responses
 from gcms_fenicsx.fe.verification import verify
-from gcms_fenicsx.reduction.spectrum import cut_cluster_warning
+from gcms_fenicsx.numerics.spectrum import cut_cluster_warning
 from gcms_fenicsx.runtime.errors import ComputationFailed
 from gcms_fenicsx.runtime.progress import Progress, quiet
 
@@ -262,20 +262,18 @@ def krylov_modes(model: FEModel, wanted: int, shift: Shift, rigid: np.ndarray,
 def wanted_modes(model: FEModel, cfg: ModesConfig, timings: dict[str, float]) -> int:
     """Elastic modes to solve for: ``cfg.count``, or the Sylvester count below
     ``cfg.max_frequency_hz``; EigenSolveError if none or more than the space can hold."""
-    if cfg.max_frequency_hz is not None:
+    if cfg.cut is not None:
         t0 = time.perf_counter()
-        cut = (2.0 * np.pi * cfg.max_frequency_hz) ** 2
-        wanted = inertia_below(model, cut) - 6
+        cut = cfg.cut
+        wanted = cfg.count_from(inertia_below(model, cut) - 6)
         timings["count_below_max_frequency"] = time.perf_counter() - t0
-        if wanted < 1 and cfg.auto:
-            wanted = 1  # the scene's band lies below the first mode: keep that one
         if wanted < 1:
             raise EigenSolveError(
                 f"no elastic mode below max_frequency_hz = {cfg.max_frequency_hz:g} Hz "
                 f"(Sylvester count of K − λM at λ = {cut:.6g}: {wanted + 6} eigenvalues, "
                 "6 of them rigid)")
     else:
-        wanted = cfg.count
+        wanted = cfg.count_from(0)
     if 6 + wanted + 2 > model.ndofs // 2 and cfg.auto:
         raise ConfigError("[modes] count", "auto", f"the scene's band up to "
                           f"{cfg.max_frequency_hz:.4g} Hz (set by its {cfg.band.set_by}) holds "

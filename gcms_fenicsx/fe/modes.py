@@ -7,7 +7,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from gcms_fenicsx.fe.verification import Verification
-from gcms_fenicsx.reduction import spectrum
+from gcms_fenicsx.numerics import spectrum
 
 
 @dataclass(frozen=True)
@@ -73,7 +73,7 @@ class Modes:
                        verification=self.verification.lowest(keep))
 
     def clusters(self) -> list[dict]:
-        """Groups of neighbouring elastic eigenvalues (``reduction.spectrum.clusters``): a group
+        """Groups of neighbouring elastic eigenvalues (``numerics.spectrum.clusters``): a group
         whose spread is below REPEATED_SPLIT is a repeated eigenvalue of that multiplicity,
         a larger one near-repeated (a bending pair on a mesh that is not symmetric)."""
         return spectrum.clusters(self.elastic_eigenvalues)

@@ -1,5 +1,5 @@
 """The constant coefficients of the reduced Saint Venant–Kirchhoff energy, from the mesh's
-quadrature points (docs/design.md §7.2; the energy and its use: ``dynamics.svk``).
+quadrature points (docs/design.md §7.2; the energy and its use: ``dynamics.bodies.svk``).
 
 At a quadrature point with weight w (the rule's weight times |det J|) and field gradients
 D = ∇F (nf × 3), C_ij = r_ijᵀ p with r_ij = svec(sym(D_i D_jᵀ)) and p = svec(Q Qᵀ), so
@@ -33,7 +33,7 @@ from mpi4py import MPI
 
 from gcms_fenicsx.config.material import Material
 from gcms_fenicsx.config.table import ConfigError
-from gcms_fenicsx.dynamics.svk import packing
+from gcms_fenicsx.numerics.packing import packing
 from gcms_fenicsx.files.svk_data import SVKCoefficients, packed_size
 from gcms_fenicsx.files.versioned import dataset_digest
 from gcms_fenicsx.fe.node_order import input_node_indices

@@ -1,6 +1,6 @@
 """``modes.h5``: the modes stage's product kept in ``--out`` for later commands to reuse.
 
-It holds the body's :class:`~gcms_fenicsx.reduction.modal_basis.ModalBasis` (every GCMS
+It holds the body's :class:`~gcms_fenicsx.files.modal_basis.ModalBasis` (every GCMS
 field at every node in the mesh file's order, G, FᵀF and Kr of all fields, the
 eigenvalues, the node groups), the ``modes.json`` document of the solve, and the key of
 the inputs it was computed from (``key``: geometry, mesh, material and the solve's
@@ -20,13 +20,12 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
-import h5py
 import numpy as np
 
 from gcms_fenicsx.files.outputs import atomic_file, json_text
 from gcms_fenicsx.files.reduced_model import NodeGroup, write_groups
-from gcms_fenicsx.files.versioned import open_versioned, seal
-from gcms_fenicsx.reduction.modal_basis import RIGID_FIELDS, ModalBasis
+from gcms_fenicsx.files.versioned import created, open_versioned, seal
+from gcms_fenicsx.files.modal_basis import RIGID_FIELDS, ModalBasis
 
 SCHEMA_VERSION = 1
 _ARRAYS = ("fields", "nodes_m", "gram_mass", "gram_euclid", "stiffness", "eigenvalues",
@@ -49,7 +48,7 @@ class StoredModes:
 def write_modes(path: str | Path, stored: StoredModes) -> None:
     """Write ``stored`` to ``path`` atomically, sealed with content checksums."""
     b = stored.basis
-    with atomic_file(Path(path)) as tmp, h5py.File(tmp, "w") as f:
+    with atomic_file(Path(path)) as tmp, created(tmp) as f:
         f.attrs["schema_version"] = SCHEMA_VERSION
         f.attrs["key"] = stored.key
         f.attrs["rigid_count"] = b.rigid_count

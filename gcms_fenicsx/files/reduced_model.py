@@ -23,7 +23,7 @@ verifies them, so a matrix changed on disk is refused even when it still looks v
 Schema 1 (before checksums) is still read; :attr:`ReducedModel.checksummed` tells.
 
 Schema 3 adds the constant coefficients of the geometrically exact Saint Venant–Kirchhoff
-energy (docs/design.md §7.2, ``dynamics.svk``) for ``[scene] elasticity = "svk"``:
+energy (docs/design.md §7.2, ``dynamics.bodies.svk``) for ``[scene] elasticity = "svk"``:
 ``/svk/quadratic_upper`` (A's upper triangle, row by row), ``/svk/linear`` (b) and the
 root attributes ``svk_constant`` (c) and ``svk_fields_sha256`` (``files.svk_data``). A model
 without them is written as schema 2, which readers of schema 2 still read; one with them is
@@ -43,7 +43,7 @@ from gcms_fenicsx.files.array_checks import Fail, check_real_array, check_symmet
 from gcms_fenicsx.files.outputs import atomic_file, json_text
 from gcms_fenicsx.files.svk_data import (SVK_CONSTANT, SVK_DATASETS, SVK_FIELDS,
                                          SVKCoefficients, check_svk, from_upper, write_svk)
-from gcms_fenicsx.files.versioned import open_versioned, seal
+from gcms_fenicsx.files.versioned import created, open_versioned, seal
 
 SCHEMA_VERSION: int = 3
 #: The first schema whose files carry content checksums.
@@ -271,7 +271,7 @@ def write_reduced(path: str | Path, model: ReducedModel) -> None:
     path = Path(path)
     validate_model(model)
     attributes = _json_attributes(model)
-    with atomic_file(path) as tmp, h5py.File(tmp, "w") as f:
+    with atomic_file(path) as tmp, created(tmp) as f:
         f.attrs["schema_version"] = schema_for(model)
         f.attrs["input_hash"] = model.input_hash
         for name, text in attributes.items():

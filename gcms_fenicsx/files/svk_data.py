@@ -3,7 +3,7 @@ reduced.h5 (schema 3, ``reduced_model``): ``/svk/quadratic_upper`` (A's upper tr
 by row: half the bytes of A), ``/svk/linear`` (b) and the root attributes ``svk_constant`` (c)
 and ``svk_fields_sha256``, the digest of the fields F they were integrated from
 (``versioned.dataset_digest``), so coefficients moved to another model's file are refused.
-What they mean and how they are used: ``dynamics.svk``; how they are computed:
+What they mean and how they are used: ``dynamics.bodies.svk``; how they are computed:
 ``fe.svk_coefficients``. NumPy and h5py only.
 """
 from __future__ import annotations
@@ -32,7 +32,7 @@ def packed_size(n: int) -> int:
 @dataclass(frozen=True)
 class SVKCoefficients:
     """The constants of the reduced Saint Venant–Kirchhoff energy V = ½ pᵀ A p + bᵀ p + c,
-    p = svec(Q Qᵀ) (``dynamics.svk``): ``quadratic`` A (s × s, symmetric), ``linear`` b (s),
+    p = svec(Q Qᵀ) (``dynamics.bodies.svk``): ``quadratic`` A (s × s, symmetric), ``linear`` b (s),
     ``constant`` c (J), s = nf (nf + 1) / 2 for the model's nf fields, and the digest of
     those fields."""
 

@@ -1,6 +1,6 @@
 """From the modal basis to the reduced body: selection, Mr, Kr, gravity, node groups.
 
-The stage takes the body's :class:`~gcms_fenicsx.reduction.modal_basis.ModalBasis` (every
+The stage takes the body's :class:`~gcms_fenicsx.files.modal_basis.ModalBasis` (every
 field with G = Fᵀ Ms F, FᵀF and Kr of all fields) and the ``[selection]`` settings and
 returns the reduced model: plain NumPy on one rank, with neither the mesh nor K, so a
 change of ``[selection]`` alone reruns only this. For the kept fields F_k T (T the
@@ -20,26 +20,28 @@ import scipy.linalg
 from gcms_fenicsx.config.selection import SelectionConfig
 from gcms_fenicsx.files.reduced_model import ReducedModel
 from gcms_fenicsx.reduction import selection
-from gcms_fenicsx.reduction.modal_basis import (ModalBasis, phi_columns, reduced_mass,
+from gcms_fenicsx.files.modal_basis import (ModalBasis, phi_columns, reduced_mass,
                                                  symmetric)
 from gcms_fenicsx.runtime.errors import ComputationFailed
+from gcms_fenicsx.runtime.progress import Progress, quiet
 
 
 class ReductionError(ComputationFailed):
     """The reduced model cannot be used (its mass matrix is not positive definite)."""
 
 
-def reduce_body(basis: ModalBasis, settings: SelectionConfig) -> ReducedModel:
+def reduce_body(basis: ModalBasis, settings: SelectionConfig,
+                progress: Progress = quiet) -> ReducedModel:
     """Select fields, build Mr, Kr and the gravity matrix from the modal basis.
 
     The reduced model with its selection report (``selection.json``); its provenance is
-    left to the file layer.
+    left to the file layer. ``progress`` hears the selection's estimate and pivots.
     """
     t0 = time.perf_counter()
     basis = basis.attachment_residuals()
     names_all = basis.names
     weighted = basis.gram_mass if settings.weighting == "mass" else basis.gram_euclid
-    chosen = selection.select_fields(weighted, settings, names_all)
+    chosen = selection.select_fields(weighted, settings, names_all, progress)
     kept = chosen.kept
     G_kept = basis.gram_mass[np.ix_(kept, kept)]
     names = tuple(names_all[i] for i in kept)

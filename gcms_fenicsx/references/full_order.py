@@ -24,11 +24,11 @@ from dolfinx import fem
 from dolfinx.fem.petsc import assemble_vector
 from petsc4py import PETSc
 
-from gcms_fenicsx.dynamics.body import Body, group_rows, make_body
-from gcms_fenicsx.dynamics.factorization import Solve, mass_factorization
-from gcms_fenicsx.dynamics.scene import Scene
-from gcms_fenicsx.dynamics.statics import HeldStatic, held_static
-from gcms_fenicsx.dynamics.rotation import polar
+from gcms_fenicsx.dynamics.bodies.body import Body, group_rows, make_body
+from gcms_fenicsx.dynamics.constraints.factorization import Solve, mass_factorization
+from gcms_fenicsx.config.scene import Scene
+from gcms_fenicsx.dynamics.constraints.statics import HeldStatic, held_static
+from gcms_fenicsx.numerics.rotation import polar
 from gcms_fenicsx.fe.assembly import FEModel
 from gcms_fenicsx.fe.mass import mass_properties
 from gcms_fenicsx.config.material import Material
@@ -59,7 +59,7 @@ def sparse_kkt_solve(K: scipy.sparse.spmatrix, C: np.ndarray, rhs: np.ndarray) -
 
 def full_held_static(full: Body, scene: Scene, load: np.ndarray | None = None,
                      time_s: float = 0.0) -> HeldStatic:
-    """``dynamics.statics.held_static`` of the full model: its joint rows chosen with a sparse
+    """``dynamics.constraints.statics.held_static`` of the full model: its joint rows chosen with a sparse
     LU of M, the bordered system solved with :func:`sparse_kkt_solve`."""
     return held_static(full, scene, load, mass_factorization(full, sparse_factorization),
                        sparse_kkt_solve, time_s)

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gcms_fenicsx.dynamics.body import Body
-from gcms_fenicsx.dynamics.rotation import rotation_about
+from gcms_fenicsx.dynamics.bodies.body import Body
+from gcms_fenicsx.numerics.rotation import rotation_about
 
 LENGTH_M = 1.0
 #: The study tables of the pendulum (as in a TOML file).

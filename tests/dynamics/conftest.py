@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from beams import BEAM6
-from gcms_fenicsx.dynamics.body import Body, body_from_reduced
+from gcms_fenicsx.dynamics.bodies.body import Body, body_from_reduced
 from gcms_fenicsx.files.reduced_model import ReducedModel, read_reduced
 
 

@@ -17,12 +17,12 @@ import pytest
 
 from beams import (E_STEEL, GRAVITY, HEIGHT_Z, LENGTH, RHO_STEEL, WIDTH_Y,
                    linear_static_displacement)
-from gcms_fenicsx.dynamics.body import Body
-from gcms_fenicsx.dynamics.corotated import elastic_state, elastic_tangent
-from gcms_fenicsx.dynamics.joints import build_constraints
-from gcms_fenicsx.dynamics.rotation import rotation_about, skew
-from gcms_fenicsx.dynamics.scene import parse_scene
-from gcms_fenicsx.dynamics.simulate import elastic_modes, modal_history, simulate_body
+from gcms_fenicsx.dynamics.bodies.body import Body
+from gcms_fenicsx.dynamics.bodies.corotated import elastic_state, elastic_tangent
+from gcms_fenicsx.dynamics.constraints.joints import build_constraints
+from gcms_fenicsx.numerics.rotation import rotation_about, skew
+from gcms_fenicsx.config.scene import parse_scene
+from gcms_fenicsx.dynamics.run.simulate import elastic_modes, modal_history, simulate_body
 from gcms_fenicsx.references.spectra import peak_frequency_hz
 
 EPS = np.finfo(float).eps

@@ -13,9 +13,9 @@ import re
 import numpy as np
 import pytest
 
-from gcms_fenicsx.dynamics.alpha import AlphaParameters
-from gcms_fenicsx.dynamics.scene import SceneError, parse_scene
-from gcms_fenicsx.dynamics.simulate import elastic_modes, simulate_body
+from gcms_fenicsx.dynamics.stepping.alpha import AlphaParameters
+from gcms_fenicsx.config.scene import SceneError, parse_scene
+from gcms_fenicsx.dynamics.run.simulate import elastic_modes, simulate_body
 
 EPS = np.finfo(float).eps
 NUMBER = r"[-+0-9.e]+"

@@ -1,5 +1,5 @@
 """A scene that starts in the held body's static equilibrium (``[scene.initial] equilibrium =
-true``, ``dynamics.statics.static_equilibrium``) and loads that rise in (a harmonic
+true``, ``dynamics.constraints.statics.static_equilibrium``) and loads that rise in (a harmonic
 load's ``ramp_time``): what makes the default crankshaft's outputs converge in the step.
 
 On the committed six-mode test beam (``beams``): the equilibrium start is where a damped run
@@ -14,9 +14,9 @@ import pytest
 
 from beams import BEAM6_SVK, GRAVITY
 from gcms_fenicsx.config.table import ConfigError
-from gcms_fenicsx.dynamics.body import body_from_reduced
-from gcms_fenicsx.dynamics.scene import SceneError, parse_scene
-from gcms_fenicsx.dynamics.simulate import simulate, simulate_body
+from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
+from gcms_fenicsx.config.scene import SceneError, parse_scene
+from gcms_fenicsx.dynamics.run.simulate import simulate, simulate_body
 from gcms_fenicsx.files.reduced_model import read_reduced
 
 CLAMP = {"type": "fixed", "group": "end_x0", "name": "clamp"}

@@ -1,4 +1,4 @@
-"""The static shapes (``gcms_fenicsx.dynamics.static_shapes``) of the committed six-mode test
+"""The static shapes (``gcms_fenicsx.dynamics.bases.static_shapes``) of the committed six-mode test
 beam, with NumPy and h5py only: the held beam's static response to the scene's loads lies in
 their span, in the full basis on them and in the rotor basis; how joints that hold it every
 way, or leave it nothing to respond to, are taken."""
@@ -7,12 +7,12 @@ from __future__ import annotations
 import numpy as np
 
 from gcms_fenicsx.config.basis import BasisConfig, scene_patterns
-from gcms_fenicsx.dynamics.body import body_from_reduced
-from gcms_fenicsx.dynamics.joints import build_constraints
-from gcms_fenicsx.dynamics.run_basis import in_basis
-from gcms_fenicsx.dynamics.scene import parse_scene
-from gcms_fenicsx.dynamics.static_shapes import held_rows, shape_model, static_shapes
-from gcms_fenicsx.dynamics.statics import dense_kkt_solve
+from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
+from gcms_fenicsx.dynamics.constraints.joints import build_constraints
+from gcms_fenicsx.dynamics.bases.run_basis import in_basis
+from gcms_fenicsx.config.scene import parse_scene
+from gcms_fenicsx.dynamics.bases.static_shapes import held_rows, shape_model, static_shapes
+from gcms_fenicsx.dynamics.constraints.statics import dense_kkt_solve
 
 PIN = {"name": "pin", "type": "revolute", "group": "end_x0", "axis": [0.0, 0.0, 1.0]}
 CLAMP = {"name": "clamp", "type": "fixed", "group": "end_x0"}

@@ -48,6 +48,6 @@ def test_the_committed_beams_were_made_from_the_current_study_and_schema(path, s
     model = read_reduced(path)
     config = parse_config(tomllib.loads(study))
     assert model.schema_version == schema_for(model), REGENERATE
-    assert (model.svk is not None) == config.needs_svk, REGENERATE
-    assert model.input_hash == config.reduced_key(), REGENERATE
+    assert (model.svk is not None) == config.plan.body.svk, REGENERATE
+    assert model.input_hash == config.plan.body.keys.reduced, REGENERATE
 

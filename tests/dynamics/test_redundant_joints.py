@@ -12,9 +12,9 @@ from dataclasses import asdict
 import numpy as np
 import pytest
 
-from gcms_fenicsx.dynamics.joints import build_constraints, independent_rows
-from gcms_fenicsx.dynamics.scene import SceneError, parse_scene
-from gcms_fenicsx.dynamics.simulate import simulate_body
+from gcms_fenicsx.dynamics.constraints.joints import build_constraints, independent_rows
+from gcms_fenicsx.config.scene import SceneError, parse_scene
+from gcms_fenicsx.dynamics.run.simulate import simulate_body
 
 EPS = np.finfo(float).eps
 

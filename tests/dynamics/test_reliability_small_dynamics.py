@@ -8,11 +8,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gcms_fenicsx.dynamics.capacity import MAX_STEPS, Capacity, check_capacity
-from gcms_fenicsx.dynamics.joints import build_constraints
-from gcms_fenicsx.dynamics.recorder import ENERGY_FLOOR_TOLERANCES, record_plan
-from gcms_fenicsx.dynamics.scene import SceneError, parse_scene
-from gcms_fenicsx.dynamics.simulate import simulate_body
+from gcms_fenicsx.dynamics.run.capacity import MAX_STEPS, Capacity, check_capacity
+from gcms_fenicsx.dynamics.constraints.joints import build_constraints
+from gcms_fenicsx.dynamics.run.recorder import ENERGY_FLOOR_TOLERANCES, record_plan
+from gcms_fenicsx.config.scene import SceneError, parse_scene
+from gcms_fenicsx.dynamics.run.simulate import simulate_body
 
 CLAMP = {"type": "fixed", "group": "end_x0", "name": "clamp"}
 

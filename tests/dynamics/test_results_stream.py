@@ -16,19 +16,19 @@ import h5py
 import numpy as np
 import pytest
 
-from gcms_fenicsx.dynamics import results
-from gcms_fenicsx.dynamics.capacity import Capacity, check_capacity
-from gcms_fenicsx.dynamics.joints import build_constraints
-from gcms_fenicsx.dynamics.recorder import record_plan
-from gcms_fenicsx.dynamics.results import RESULTS_SCHEMA_VERSION, ResultsError, read_results
-from gcms_fenicsx.dynamics.scene import SceneError, parse_scene
-from gcms_fenicsx.dynamics.simulate import simulate, simulate_body, simulate_to_file
-from gcms_fenicsx.files.plots import plot_results, read_plot_data
+from gcms_fenicsx.files import results
+from gcms_fenicsx.dynamics.run.capacity import Capacity, check_capacity
+from gcms_fenicsx.dynamics.constraints.joints import build_constraints
+from gcms_fenicsx.dynamics.run.recorder import record_plan
+from gcms_fenicsx.files.results import RESULTS_SCHEMA_VERSION, ResultsError, read_results
+from gcms_fenicsx.config.scene import SceneError, parse_scene
+from gcms_fenicsx.dynamics.run.simulate import simulate, simulate_body, simulate_to_file
+from gcms_fenicsx.app.plots import plot_results, read_plot_data
 from gcms_fenicsx.files.versioned import dataset_digest
 from simulate_runs import assert_one_line_error, contents, output_folder, standalone, study
 
 #: The module (the package's ``simulate`` is the function of that name).
-SIMULATE_MODULE = importlib.import_module("gcms_fenicsx.dynamics.simulate")
+SIMULATE_MODULE = importlib.import_module("gcms_fenicsx.dynamics.run.simulate")
 #: Summary entries that are measured times, not results.
 TIMINGS = ("wall_time_s", "setup_time_s", "steps_per_second", "time_per_step_us")
 

@@ -1,4 +1,4 @@
-"""The rotor basis (``gcms_fenicsx.dynamics.rotor``) on the committed six-mode test beam: its
+"""The rotor basis (``gcms_fenicsx.dynamics.bodies.rotor``) on the committed six-mode test beam: its
 kinematics, objectivity, the exact tangent against finite differences, joint reactions in
 equilibrium, energy conservation with the integrator, agreement with the full basis, and the
 choice of basis for a scene.
@@ -8,15 +8,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gcms_fenicsx.dynamics.body import elastic_modes
-from gcms_fenicsx.dynamics.joints import build_constraints
-from gcms_fenicsx.dynamics.loads import external_forces
-from gcms_fenicsx.dynamics.rotation import rotation_about
-from gcms_fenicsx.dynamics.rotor import rotor_body, rotor_state, rotor_tangent
-from gcms_fenicsx.dynamics.basis_choice import choose_basis
-from gcms_fenicsx.dynamics.rotor_basis import mode_fields
-from gcms_fenicsx.dynamics.scene import SceneError, parse_scene
-from gcms_fenicsx.dynamics.simulate import simulate
+from gcms_fenicsx.dynamics.bodies.body import elastic_modes
+from gcms_fenicsx.dynamics.constraints.joints import build_constraints
+from gcms_fenicsx.dynamics.bodies.loads import external_forces
+from gcms_fenicsx.numerics.rotation import rotation_about
+from gcms_fenicsx.dynamics.bodies.rotor import rotor_body, rotor_state, rotor_tangent
+from gcms_fenicsx.config.basis_choice import choose_basis
+from gcms_fenicsx.dynamics.bases.rotor_basis import mode_fields
+from gcms_fenicsx.config.scene import SceneError, parse_scene
+from gcms_fenicsx.dynamics.run.simulate import simulate
 from test_dynamics import observed_orders
 
 EPS = np.finfo(float).eps
@@ -242,7 +242,7 @@ def test_damping_is_the_gradient_of_the_dissipation_and_spares_rigid_motion(roto
     """Rayleigh damping in the rotor basis: the force T f_l is ∂D/∂ṗ of D = ½ ėᵀ D₀ ė
     (central differences in ṗ, D quadratic: exact to round-off), and a rigid velocity —
     translation or turning about the axis — dissipates nothing."""
-    from gcms_fenicsx.dynamics.damping import RayleighDamping
+    from gcms_fenicsx.dynamics.bodies.damping import RayleighDamping
     rng = np.random.default_rng(11)
     p = deformed(rotor, rng, 1e-3)
     es = rotor_state(rotor, p)

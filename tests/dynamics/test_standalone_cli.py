@@ -13,7 +13,7 @@ import h5py
 import numpy as np
 import pytest
 
-from gcms_fenicsx.dynamics.results import (RESULTS_SCHEMA_VERSION, ResultsError, Trajectory,
+from gcms_fenicsx.files.results import (RESULTS_SCHEMA_VERSION, ResultsError, Trajectory,
                                            read_results, write_results)
 from gcms_fenicsx.files.reduced_model import read_reduced
 from simulate_runs import (BAD_SCENES, FE_STACK, REPO, SCENE, assert_one_line_error, contents,

@@ -1,4 +1,4 @@
-"""Geometrically exact Saint Venant–Kirchhoff GCMS (``gcms_fenicsx.dynamics.svk``) on the
+"""Geometrically exact Saint Venant–Kirchhoff GCMS (``gcms_fenicsx.dynamics.bodies.svk``) on the
 committed six-mode test beam with its SVK coefficients (``beams.BEAM6_SVK``): an analytic
 energy, objectivity, the exact tangent against finite differences, the small-strain limit
 (the co-rotated linear model) and conservation with the generalized-α integrator.
@@ -12,12 +12,13 @@ import numpy as np
 import pytest
 
 from beams import BEAM6_SVK, E_STEEL, HEIGHT_Z, LENGTH, NU_STEEL, WIDTH_Y
-from gcms_fenicsx.dynamics import kkt, svk
-from gcms_fenicsx.dynamics.body import body_from_reduced
-from gcms_fenicsx.dynamics.corotated import elastic_state
-from gcms_fenicsx.dynamics.rotation import rotation_about
-from gcms_fenicsx.dynamics.scene import SceneError, parse_scene
-from gcms_fenicsx.dynamics.simulate import simulate, simulate_body
+from gcms_fenicsx.dynamics.constraints import kkt
+from gcms_fenicsx.dynamics.bodies import svk
+from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
+from gcms_fenicsx.dynamics.bodies.corotated import elastic_state
+from gcms_fenicsx.numerics.rotation import rotation_about
+from gcms_fenicsx.config.scene import SceneError, parse_scene
+from gcms_fenicsx.dynamics.run.simulate import simulate, simulate_body
 from gcms_fenicsx.files.reduced_model import read_reduced
 from test_dynamics import deformed, moved, observed_orders, random_rotation
 

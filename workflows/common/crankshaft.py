@@ -27,7 +27,7 @@ def outputs(results: Path | Any) -> dict[str, Any]:
     ``read_results`` returned it), per output a (time, components) array."""
     import numpy as np
 
-    from gcms_fenicsx.dynamics.results import joint_force, read_results
+    from gcms_fenicsx.files.results import joint_force, read_results
 
     r = read_results(results) if isinstance(results, Path) else results
     torque = [i for i, row in enumerate(r.rows) if row["kind"] == "drive_moment"]
@@ -84,12 +84,12 @@ def study(case: str, s: dict[str, Any]) -> dict:
 
 def run_chain(raw: dict, folder: Path) -> tuple[Any, Any, float]:
     """Mesh to reduced model through the pipeline's stages: (config, reduced model, seconds)."""
-    from gcms_fenicsx import pipeline
+    from gcms_fenicsx.app import pipeline
     from gcms_fenicsx.config.study import parse_config
 
     cfg = parse_config(raw)
     t0 = time.perf_counter()
-    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.modes, folder)
+    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.plan.body.modes, folder)
     basis = pipeline.basis_stage(chain.assembly.model, chain.modes, chain.body)
     reduced = pipeline.reduction_stage(basis, cfg.selection)
     return cfg, reduced, time.perf_counter() - t0
@@ -102,7 +102,7 @@ def shapes_of(cfg) -> dict[str, Any]:
 
     from gcms_fenicsx.config.basis import scene_patterns
 
-    if not cfg.modes.attachment:
+    if not cfg.plan.body.modes.attachment:
         return {"modes": None}
     return {"modes": None,
             "static": scene_patterns(replace(cfg.basis, shapes="static"), cfg.scene)}
@@ -112,13 +112,13 @@ def crankshaft_outputs(reduced, cfg, folder: Path, tag: str, basis: str = "full"
                        static=None) -> tuple[dict, float, Any, int]:
     """(outputs, simulation seconds, recorded times, coordinates) of one run in ``basis``
     (on the static shapes of the scene's ``static`` patterns, if given)."""
-    from gcms_fenicsx.dynamics.results import read_results
-    from gcms_fenicsx.dynamics.simulate import simulate_to_file
+    from gcms_fenicsx.files.results import read_results
+    from gcms_fenicsx.dynamics.run.simulate import simulate_to_file
 
     path = folder / f"{tag}.h5"
     t0 = time.perf_counter()
     summary = simulate_to_file(reduced, cfg.scene, path, basis=basis,
-                               attachment=cfg.modes.attachment or (), static=static)
+                               attachment=cfg.plan.body.modes.attachment or (), static=static)
     online = time.perf_counter() - t0
     results = read_results(path)
     return outputs(results), online, results.time, summary["reduced_dofs"]

@@ -15,7 +15,7 @@ from common.crankshaft import BASES, errors, outputs, percents
 def run(model, scene, basis: str, attachment: tuple, static=None) -> tuple[dict, dict]:
     """(outputs and their times, summary) of one run of ``scene`` in ``basis`` (on the static
     shapes of the scene's ``static`` patterns, if given)."""
-    from gcms_fenicsx.dynamics.simulate import simulate
+    from gcms_fenicsx.dynamics.run.simulate import simulate
 
     traj, summary = simulate(model, scene, basis=basis, attachment=attachment, static=static)
     if not summary["complete"]:

@@ -1,0 +1,200 @@
+"""Pictures of a simulation for a person to look at: a sensor's trajectory and the energies.
+
+They are drawn from ``results.h5`` and read only what they show — the time, the first output
+group, the energies and the multipliers — and of a long run only every k-th recorded row, at
+most ``PLOT_ROWS`` of them (a figure is about a thousand pixels wide; the title says k), so
+drawing them takes bounded memory whatever the length of the run.
+
+Each picture is drawn to a temporary name and renamed (``files.outputs.atomic_file``), and one
+that cannot be drawn is a warning naming it, never an error: the pictures come after the
+run's results are published (``commands``), and a figure must not cost the run.
+
+Matplotlib (Agg) is imported when a picture is drawn, not before.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from gcms_fenicsx.files.results import MULTIPLIERS, joint_force, open_results
+from gcms_fenicsx.files.outputs import atomic_file
+from gcms_fenicsx.runtime.progress import Progress, quiet
+
+#: At most this many rows of each series are read for the pictures.
+PLOT_ROWS = 20_000
+
+
+@dataclass(frozen=True)
+class PlotData:
+    """What the pictures show, read from results.h5 (every ``stride``-th recorded row)."""
+
+    time: np.ndarray
+    sensor: str | None                 # the first output group
+    sensor_position: np.ndarray
+    energy: dict[str, np.ndarray]
+    multipliers: np.ndarray
+    rows: list[dict]
+    complete: bool
+    stride: int
+
+    def joint_force(self, joint: str) -> np.ndarray:
+        """The force (N) ``joint`` exerts on the body, at the rows shown."""
+        return joint_force(self.rows, self.multipliers, joint)
+
+    @property
+    def note(self) -> str:
+        """What the title says about the rows shown."""
+        return "" if self.stride == 1 else f" (one recorded row in {self.stride} shown)"
+
+
+def read_plot_data(path: Path, max_rows: int = PLOT_ROWS) -> PlotData:
+    """The series the pictures need, every k-th row with k = ⌈rows / max_rows⌉; the file is
+    the one this run has just written, so its checksums are not read back."""
+    with open_results(path, verify=False) as (f, _):
+        stride = max(1, math.ceil(len(f["time"]) / max_rows))
+        groups = json.loads(f.attrs["scene"])["outputs"]["groups"]   # HDF5 sorts its groups
+        sensor = groups[0] if groups else None
+        return PlotData(
+            time=f["time"][::stride],
+            sensor=sensor,
+            sensor_position=(f[f"groups/{sensor}/position"][::stride] if sensor
+                             else np.zeros((0, 3))),
+            energy={n: f[f"energy/{n}"][::stride] for n in f.get("energy", {})},
+            multipliers=f[MULTIPLIERS][::stride], rows=json.loads(f.attrs["rows"]),
+            complete=bool(f.attrs["complete"]), stride=stride)
+
+
+def _pyplot():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def _save(plt, fig, path: Path) -> None:
+    """Write ``fig`` as PNG to ``path`` (a temporary name: the format is not read from it)."""
+    try:
+        fig.tight_layout()
+        fig.savefig(path, dpi=110, format="png")
+    finally:
+        plt.close(fig)
+
+
+def plot_trajectory(traj: PlotData, path: Path) -> None:
+    """The sensor group's displacement components against time, and its path in the plane
+    of its two largest motions."""
+    plt = _pyplot()
+    t, x, sensor = traj.time, traj.sensor_position, traj.sensor
+    d = x - x[0]
+    scale, unit = (1e3, "mm") if np.abs(d).max() > 1e-4 else (1e6, "µm")
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11.5, 4.3))
+    for k, name in enumerate("xyz"):
+        left.plot(t, scale * d[:, k], label=f"{name}")
+    left.set_xlabel("time [s]")
+    left.set_ylabel(f"displacement of {sensor} [{unit}]")
+    left.legend(loc="best")
+    left.grid(alpha=0.3)
+    a, b = np.sort(np.argsort(np.ptp(x, axis=0))[::-1][:2])
+    right.plot(scale * d[:, a], scale * d[:, b], lw=0.8)
+    right.plot([0.0], [0.0], "o", label="start")
+    right.set_xlabel(f"{'xyz'[a]} displacement [{unit}]")
+    right.set_ylabel(f"{'xyz'[b]} displacement [{unit}]")
+    right.set_aspect("equal", adjustable="datalim")
+    right.legend(loc="best")
+    right.grid(alpha=0.3)
+    right.set_title(f"path of {sensor}")
+    status = "" if traj.complete else "  (incomplete)"
+    fig.suptitle(f"sensor {sensor}{status}{traj.note}")
+    _save(plt, fig, path)
+
+
+def plot_energy(traj: PlotData, path: Path) -> None:
+    """Kinetic, elastic and gravity energy, the work terms, and the balance error."""
+    plt = _pyplot()
+    e, t = traj.energy, traj.time
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True,
+                                      gridspec_kw={"height_ratios": [2.2, 1]})
+    top.plot(t, e["kinetic"], label="kinetic")
+    top.plot(t, e["elastic"], label="elastic")
+    top.plot(t, e["gravity"] - e["gravity"][0], label="gravity (from start)")
+    for name in ("load_work", "constraint_work", "damping_dissipation"):
+        if np.any(e[name]):
+            top.plot(t, e[name], "--", label=name.replace("_", " "))
+    top.set_ylabel("energy [J]")
+    top.legend(loc="best", fontsize=8)
+    top.grid(alpha=0.3)
+    bottom.plot(t, e["balance_error"], color="k")
+    bottom.set_ylabel("balance error [J]")
+    bottom.set_xlabel("time [s]")
+    bottom.grid(alpha=0.3)
+    top.set_title(f"energies{traj.note}")
+    _save(plt, fig, path)
+
+
+def plot_joints(traj: PlotData, path: Path) -> None:
+    """The force on the body (magnitude) of every joint that keeps force rows and, when a
+    joint constrains a rotation, its moments, against time: a scene of spherical joints only
+    gets no moment panel, and a joint whose force rows all went to an earlier joint on its
+    group (a revolute after a fixed one) only its moments."""
+    plt = _pyplot()
+    joints = list(dict.fromkeys(r["joint"] for r in traj.rows if r["kind"] == "force"))
+    moments = [(i, r) for i, r in enumerate(traj.rows) if r["unit"] == "N*m"]
+    fig, axes = plt.subplots(2 if moments else 1, 1, figsize=(9, 6.5 if moments else 3.8),
+                             sharex=True, squeeze=False)
+    top = axes[0, 0]
+    for name in joints:
+        top.plot(traj.time, np.linalg.norm(traj.joint_force(name), axis=1), label=name)
+    top.set_ylabel("|joint force on body| [N]")
+    top.set_title(f"joints{traj.note}")
+    top.legend(loc="best", fontsize=8)
+    top.grid(alpha=0.3)
+    if moments:
+        bottom = axes[1, 0]
+        for i, r in moments:
+            axis = np.round(r["axis"], 2).tolist()
+            bottom.plot(traj.time, -traj.multipliers[:, i], lw=0.9,
+                        label=f"{r['joint']}: {r['kind'].replace('_', ' ')} about {axis}")
+        bottom.set_ylabel("moment on body [N·m]")
+        bottom.legend(loc="best", fontsize=7)
+        bottom.grid(alpha=0.3)
+    axes[-1, 0].set_xlabel("time [s]")
+    _save(plt, fig, path)
+
+
+#: The pictures in the order they are drawn: name, drawing function, and whether the run's
+#: data have what it shows.
+PICTURES = (
+    ("trajectory.png", plot_trajectory, lambda d: d.sensor is not None),
+    ("energy.png", plot_energy, lambda d: bool(d.energy)),
+    ("joints.png", plot_joints, lambda d: bool(d.rows)),
+)
+
+
+def plot_results(results: Path, folder: Path, warn: Progress = quiet) -> list[str]:
+    """trajectory.png (first output group), energy.png and joints.png of the results file
+    ``results`` into ``folder``, where the data exist; the names of those drawn. A picture
+    that cannot be drawn (or results that cannot be read for them) is a ``warn`` line naming
+    it and the reason, and is not written."""
+    try:
+        traj = read_plot_data(results)
+    except Exception as exc:  # any failure of a picture is a warning, never the run's loss
+        warn(f"warning: no pictures drawn: {results} could not be read for them "
+             f"({type(exc).__name__}: {exc})")
+        return []
+    written = []
+    for name, draw, shown in PICTURES:
+        if not (shown(traj) and len(traj.time) > 1):
+            continue
+        try:
+            with atomic_file(folder / name) as tmp:
+                draw(traj, tmp)
+        except Exception as exc:
+            warn(f"warning: {name} could not be drawn ({type(exc).__name__}: {exc}); the "
+                 "run's results are complete without it")
+            continue
+        written.append(name)
+    return written

@@ -1,0 +1,262 @@
+"""What a simulation records while it runs, and the energy balance it keeps every step.
+
+Energy (all in J): kinetic T = ½ q̇ᵀ Mr q̇, elastic V (co-rotated), gravity potential
+V_g = −q · f_g, and the work integrals, accumulated by the trapezoidal rule over every
+step (not only recorded ones): the loads' work ∫ f_load · q̇ dt, the constraint forces'
+work ∫ −λ · (C q̇) dt (a drive's work; ~0 for fixed joints) and the damping dissipation
+∫ ėᵀ D ė dt. The balance error
+
+    (T + V + V_g)(t) − (T + V + V_g)(0) − W_load − W_constraint + D
+
+is zero for the exact solution; the integrator's numerical dissipation (ρ∞ < 1) and its
+error show up in it (:attr:`Extremes.energy_drift`).
+
+Rows are kept raw in a block of at most :attr:`RecordPlan.block_rows` rows
+(``results.block_rows``), turned into the recorded series and handed to a sink (``results``:
+memory or a streamed file) when it is full, so what the recorder holds does not grow with
+the run and the time loop does no more per recorded step than copy the state; the maxima
+the summary reports are kept as the blocks pass.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from gcms_fenicsx.dynamics.bodies.body import Body
+from gcms_fenicsx.dynamics.stepping.state import State, StepInfo
+from gcms_fenicsx.dynamics.constraints.joints import Constraints
+from gcms_fenicsx.dynamics.bodies.loads import ExternalForces
+from gcms_fenicsx.files.results import (BLOCK_BYTES, MULTIPLIERS, Series, Sink, block_rows,
+                                           series_layout)
+from gcms_fenicsx.config.scene import Outputs, Scene, Solver
+
+
+@dataclass(frozen=True)
+class RecordPlan:
+    """What a run will record, known before it starts: the series, the number of steps and
+    of recorded rows (at most), the field snapshots (step indices) and the block size."""
+
+    layout: tuple[Series, ...]
+    steps: int
+    rows: int
+    snapshot_steps: frozenset[int]
+    nodes: int
+    block_rows: int
+
+    @property
+    def row_bytes(self) -> int:
+        return sum(s.row_bytes for s in self.layout)
+
+    @property
+    def series_bytes(self) -> int:
+        return self.rows * self.row_bytes
+
+    @property
+    def snapshot_bytes(self) -> int:
+        """The snapshots (time and N × 3 displacements each) and the nodes they refer to."""
+        per_node = 3 * 8
+        return len(self.snapshot_steps) * (8 + self.nodes * per_node) + (
+            self.nodes * per_node if self.snapshot_steps else 0)
+
+    @property
+    def total_bytes(self) -> int:
+        return self.series_bytes + self.snapshot_bytes
+
+
+def recorded_rows(steps: int, every: int) -> int:
+    """Rows of a run of ``steps`` steps recording steps 0, every, 2·every, … and the last."""
+    return steps // every + 1 + (1 if steps % every else 0)
+
+
+def record_plan(body: Body, constraints: Constraints, scene: Scene) -> RecordPlan:
+    """The plan of what ``scene`` records on ``body`` (the full basis) with
+    ``constraints``."""
+    out, steps = scene.outputs, scene.steps
+    layout = series_layout(out.groups, out.energy,
+                           constraints.count if out.constraint_forces else 0,
+                           body.dofs if out.coordinates else 0)
+    rows = recorded_rows(steps, out.every)
+    snapshots = frozenset(min(steps, int(round(t / scene.time_step_s))) for t in out.field_times)
+    return RecordPlan(layout=layout, steps=steps, rows=rows, snapshot_steps=snapshots,
+                      nodes=len(body.nodes_m), block_rows=block_rows(layout, rows))
+
+
+#: The relative energy drift is measured against at least the kinetic energy of the whole
+#: body moving this many Newton tolerances (at the default ``[scene] solver`` tolerance, 1e-10
+#: of its size) in one step: a motion the solver does not resolve. In consistent units
+#: (m L²/h² is an energy in SI and in mm-t-s alike). A body at rest then reports its
+#: round-off (1e-19 J of 1e-19 J: the test beam) as a drift of 4e-8, not of 1.
+ENERGY_FLOOR_TOLERANCES = 10.0
+
+
+def energy_floor_j(body: Body, time_step_s: float) -> float:
+    """The least energy scale of the relative drift (``ENERGY_FLOOR_TOLERANCES``)."""
+    speed = ENERGY_FLOOR_TOLERANCES * Solver().tolerance * body.size_m / time_step_s
+    return 0.5 * body.total_mass_kg * speed ** 2
+
+
+class Extremes:
+    """The maxima over the recorded rows that the summary reports, kept as blocks pass;
+    ``floor_j`` is the least scale of the relative energy drift (:func:`energy_floor_j`)."""
+
+    def __init__(self, floor_j: float = 0.0) -> None:
+        self.floor_j = floor_j
+        self.rows = 0
+        self.iterations = 0
+        self.energy = False
+        self.balance = 0.0          # max |balance error|
+        self.motion = -math.inf     # max (kinetic + elastic)
+        self.load_work = 0.0        # max |load work|
+        self.constraint_work = 0.0  # max |constraint work|
+        self.momentum0: np.ndarray | None = None
+        self.momentum_change = 0.0  # max |p − p0| (componentwise)
+
+    def update(self, block: Mapping[str, np.ndarray]) -> None:
+        self.rows += len(block["time"])
+        self.iterations = max(self.iterations, int(block["newton_iterations"].max(initial=0)))
+        p = block["momentum/linear"]
+        if self.momentum0 is None:
+            self.momentum0 = p[0].copy()
+        self.momentum_change = max(self.momentum_change,
+                                   float(np.abs(p - self.momentum0).max()))
+        if "energy/kinetic" in block:
+            self.energy = True
+            self.balance = max(self.balance, float(np.max(np.abs(block["energy/balance_error"]))))
+            self.motion = max(self.motion, float(np.max(block["energy/kinetic"]
+                                                        + block["energy/elastic"])))
+            self.load_work = max(self.load_work, float(np.max(np.abs(block["energy/load_work"]))))
+            self.constraint_work = max(self.constraint_work,
+                                       float(np.max(np.abs(block["energy/constraint_work"]))))
+
+    @property
+    def energy_drift(self) -> float | None:
+        """max |balance error| over the run / max (kinetic + elastic, |load work|, |constraint
+        work|, ``floor_j``): the relative energy drift; None without energies or with one
+        row. The floor keeps a body at rest, whose energies are all round-off, from reporting
+        its round-off divided by itself."""
+        if not self.energy or self.rows < 2:
+            return None
+        scale = max(self.motion, self.load_work, self.constraint_work, self.floor_j)
+        return self.balance / scale if scale > 0 else self.balance
+
+    @property
+    def energy_drift_j(self) -> float | None:
+        """max |balance error| over the run (J); None when :attr:`energy_drift` is."""
+        return None if self.energy_drift is None else self.balance
+
+
+class Recorder:
+    """Rows for the steps ``0, every, 2·every, …`` and the last one, handed to ``sink`` in
+    blocks; field snapshots at ``plan.snapshot_steps``.
+
+    In the time loop a step only adds its powers to the work integrals (the trapezoidal rule
+    takes every step) and, when it is recorded, copies its raw row into preallocated arrays:
+    q and q̇ in one copy, λ, and a tuple of scalars (t, iterations, V, the works). The derived
+    series (group positions, momenta, energies) are computed for a whole block of rows at
+    once when it is handed on (:meth:`flush`). A block holds ``plan.block_rows`` rows, fewer
+    where the raw rows of a large body would exceed ``BLOCK_BYTES``
+    (docs/integrator_profile.md).
+
+    ``lift``: B when the run's coordinates are p with q = B p (the rotor basis): the rows
+    hold p, and every series, ``coordinates/q`` and ``coordinates/v`` too, is the full basis
+    ``body``'s, taken at B p (so results.h5 reads with reduced.h5 in either basis; a body on
+    static shapes in the full basis is its own model's, ``static_shapes.shape_model``, and so
+    are its coordinates).
+    """
+
+    def __init__(self, body: Body, constraints: Constraints, forces: ExternalForces,
+                 outputs: Outputs, plan: RecordPlan, time_step_s: float, sink: Sink,
+                 lift: np.ndarray | None = None) -> None:
+        self.body, self.c, self.forces, self.out = body, constraints, forces, outputs
+        self.plan, self.sink, self.lift = plan, sink, lift
+        self.h = time_step_s
+        n = body.dofs if lift is None else lift.shape[1]
+        m = constraints.count if outputs.constraint_forces else 0
+        rows = max(1, min(plan.block_rows, BLOCK_BYTES // (8 * (2 * n + m + 6))))
+        self.qv = np.zeros((rows, 2, n))
+        self.multipliers = np.zeros((rows, m))
+        self.scalars: list[tuple] = []   # t, iterations, V, load, constraint, damping work
+        self.filled = 0
+        self.last_time: float | None = None
+        self.extremes = Extremes(energy_floor_j(body, time_step_s))
+        self.energy = outputs.energy
+        self.loads = bool(forces.loads)
+        self.work = [0.0, 0.0, 0.0]     # load, constraint, damping
+        self._power: tuple[float, float, float] | None = None
+        self._initial_energy: float | None = None
+
+    def step(self, index: int, s: State, info: StepInfo, last: bool = False) -> None:
+        """Account for step ``index`` (0 = initial state) and record it if it is due: add the
+        powers of the loads (f_ext without gravity), of the constraint forces (−λ · C q̇) and
+        of the damping to the work integrals."""
+        if self.energy:
+            v = s.Z[1]
+            load = (info.external_force - self.forces.gravity_force).dot(v) if self.loads \
+                else 0.0
+            constraint = -s.lam.dot(info.jacobian.dot(v)) if info.jacobian is not None else 0.0
+            power = (float(load), float(constraint), info.dissipation_w)
+            before, w, half_h = self._power, self.work, 0.5 * self.h
+            if before is not None:
+                w[0] += half_h * (before[0] + power[0])
+                w[1] += half_h * (before[1] + power[1])
+                w[2] += half_h * (before[2] + power[2])
+            self._power = power
+        if index in self.plan.snapshot_steps:
+            q = s.q if self.lift is None else self.lift.dot(s.q)
+            self.sink.snapshot(s.t, self.body.displacement(q))
+        if last or index % self.out.every == 0:
+            self.record(s, info)
+
+    def record(self, s: State, info: StepInfo) -> None:
+        """Copy the raw row of a state already accounted for by :meth:`step`."""
+        k = self.filled
+        self.qv[k] = s.Z[:2]
+        if self.multipliers.shape[1]:
+            self.multipliers[k] = s.lam
+        w = self.work
+        self.scalars.append((s.t, info.iterations, info.elastic.energy if self.energy else 0.0,
+                             w[0], w[1], w[2]))
+        self.last_time = s.t
+        self.filled = k + 1
+        if self.filled == len(self.qv):
+            self.flush()
+
+    def flush(self) -> None:
+        """Compute the block's series from its raw rows and hand them to the sink."""
+        k = self.filled
+        if not k:
+            return
+        body, out = self.body, self.out
+        qv = self.qv[:k] if self.lift is None else self.qv[:k].dot(self.lift.T)
+        Q = qv[:, 0].reshape(k, -1, 3)
+        V = qv[:, 1].reshape(k, -1, 3)
+        scalars = np.array(self.scalars, dtype=float)
+        self.scalars = []
+        block = {"time": scalars[:, 0].copy(),
+                 "newton_iterations": scalars[:, 1].astype("<i4")}
+        for g in out.groups:
+            h = body.groups[g].position
+            block[f"groups/{g}/position"] = np.matmul(h, Q)
+            block[f"groups/{g}/velocity"] = np.matmul(h, V)
+        kinetic, block["momentum/linear"], block["momentum/angular"] = body.momenta(Q, V)
+        block[MULTIPLIERS] = self.multipliers[:k]
+        if out.coordinates:
+            block["coordinates/q"], block["coordinates/v"] = qv[:, 0], qv[:, 1]
+        if self.energy:
+            elastic, w = scalars[:, 2], scalars[:, 3:]
+            gravity = self.forces.gravity_potential(self.qv[:k, 0])
+            total = kinetic + elastic + gravity
+            if self._initial_energy is None:
+                self._initial_energy = float(total[0])
+            block.update({"energy/kinetic": kinetic, "energy/elastic": elastic,
+                          "energy/gravity": gravity, "energy/load_work": w[:, 0],
+                          "energy/constraint_work": w[:, 1],
+                          "energy/damping_dissipation": w[:, 2],
+                          "energy/balance_error": (total - self._initial_energy - w[:, 0]
+                                                   - w[:, 1] + w[:, 2])})
+        self.extremes.update(block)
+        self.sink.append(block)
+        self.filled = 0
