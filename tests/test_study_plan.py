@@ -1,17 +1,19 @@
 """The study's plan (``config.plan``, docs/design.md §1.2): one frozen value however the study
-is reached — a file read by the command line, a dict given to the Python API, the default —
+is reached — a file read by the command line, a dict given to the Python API, the default,
+the tables a workflow builds (``workflows/common``) —
 and what the command's stages produce carries exactly its keys; a choice that does not fit
 is refused when the study is read, before any stage runs."""
 from __future__ import annotations
 
 import dataclasses
 import json
+import sys
 import tomllib
 
 import pytest
 
 from beams import beam_study
-from conftest import gcms
+from conftest import REPO, gcms
 from gcms_fenicsx.config.plan import REDUCED_MODEL_TABLES, StudyPlan
 from gcms_fenicsx.config.study import default_config_text, load_config, parse_config
 from gcms_fenicsx.config.table import ConfigError
@@ -21,15 +23,20 @@ from simulate_runs import SCENE
 
 
 def test_the_plan_is_one_frozen_value_however_the_study_is_reached(tmp_path):
-    """The default study read from the package, from a file and as a dict: equal plans, and
-    a plan's fields cannot be changed (frozen all the way down to the body's keys)."""
+    """The default study read from a file (the command line's route), as a dict (the Python
+    API), built in, and as the workflows build it: equal plans, and a plan's fields cannot be
+    changed (frozen all the way down to the body's keys)."""
+    sys.path.insert(0, str(REPO / "workflows"))
+    from common.crankshaft import default_study
+
     path = tmp_path / "default.toml"
     path.write_text(default_config_text())
     from_file = load_config(path).plan
     from_dict = parse_config(tomllib.loads(default_config_text()), str(path)).plan
     built_in = dataclasses.replace(load_config(None).plan, source=str(path))
+    workflow = parse_config(default_study(), str(path)).plan
     assert isinstance(from_file, StudyPlan)
-    assert from_file == from_dict == built_in
+    assert from_file == from_dict == built_in == workflow
     with pytest.raises(dataclasses.FrozenInstanceError):
         from_file.body.svk = True                      # type: ignore[misc]
     with pytest.raises(dataclasses.FrozenInstanceError):

@@ -20,23 +20,11 @@ from matplotlib.patches import Patch  # noqa: E402
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
 from gcms_fenicsx.config.geometry import parse_geometry, parse_mesh  # noqa: E402
+from common.sections import SECTIONS as EXAMPLE_SECTIONS  # noqa: E402
 from geometry import SECTIONS  # noqa: E402
 from geometry.meshing import add_body, gmsh_session, set_mesh_sizes  # noqa: E402
 
-#: Example dimensions (m) of each section, drawn as a beam 0.1 m long.
-EXAMPLES: dict[str, dict] = {
-    "square": {"side": 0.04},
-    "rectangle": {"width": 0.05, "height": 0.03},
-    "circle": {"radius": 0.02},
-    "tube": {"radius": 0.025, "thickness": 0.005},
-    "box": {"width": 0.05, "height": 0.04, "thickness": 0.005},
-    "I": {"width": 0.04, "height": 0.05, "flange_thickness": 0.007, "web_thickness": 0.005},
-    "T": {"width": 0.05, "height": 0.05, "flange_thickness": 0.008, "web_thickness": 0.006},
-    "C": {"width": 0.03, "height": 0.05, "flange_thickness": 0.007, "web_thickness": 0.006},
-    "L": {"width": 0.04, "height": 0.05, "thickness": 0.008},
-    "polygon": {"vertices": [[0, 0], [0.05, 0], [0.05, 0.012], [0.02, 0.02], [0.035, 0.045],
-                             [0, 0.045]]},
-}
+#: Each section (``common.sections``) is drawn as a beam this long (m).
 BEAM_LENGTH = 0.1
 CRANK_DRAW_SIZE = 0.005
 BODY_COLOUR = (0.72, 0.74, 0.77)
@@ -91,7 +79,8 @@ def main(argv: list[str] | None = None) -> Path:
     fig = plt.figure(figsize=(18, 13))
     grid = fig.add_gridspec(3, 5, height_ratios=(1, 1, 1.8))
     for k, section in enumerate(SECTIONS):
-        raw = {"kind": "beam", "section": section, "length": BEAM_LENGTH, **EXAMPLES[section]}
+        raw = {"kind": "beam", "section": section, "length": BEAM_LENGTH,
+               **EXAMPLE_SECTIONS[section]}
         triangles, colours = surface_triangles(raw)
         ax = fig.add_subplot(grid[divmod(k, 5)], projection="3d")
         draw(ax, triangles, colours, f"section = \"{section}\"", view=(22, -135))

@@ -26,21 +26,8 @@ import numpy as np
 
 from common import log, parser, pyplot, quiet, save_figure, table_head, temporary_folder
 from common import table_row, write_record
+from common.sections import SECTIONS
 
-BEAMS = {
-    "square": {"side": 0.05},
-    "rectangle": {"width": 0.06, "height": 0.03},
-    "circle": {"radius": 0.025},
-    "tube": {"radius": 0.03, "thickness": 0.006},
-    "box": {"width": 0.06, "height": 0.04, "thickness": 0.006},
-    "I": {"width": 0.05, "height": 0.06, "flange_thickness": 0.008, "web_thickness": 0.006},
-    "T": {"width": 0.05, "height": 0.06, "flange_thickness": 0.008, "web_thickness": 0.006},
-    "C": {"width": 0.05, "height": 0.06, "flange_thickness": 0.008, "web_thickness": 0.006},
-    "L": {"width": 0.05, "height": 0.04, "thickness": 0.008},
-    # no symmetry at all: an irregular pentagon
-    "polygon": {"vertices": [[0.0, 0.0], [0.055, 0.004], [0.048, 0.03], [0.02, 0.045],
-                             [-0.006, 0.022]]},
-}
 MODE_COUNTS = (10, 20)
 SWEEP = (1e-10, 1e-8, 1e-6, 1e-4, 1e-3, 1e-2)
 
@@ -49,7 +36,7 @@ def studies(quick: bool) -> dict[str, dict]:
     """Study tables (as in a TOML file) by case name."""
     cases = {name: {"geometry": {"kind": "beam", "section": name, "length": 1.0, **dims},
                     "mesh": {"size": 0.01, "order": 2}}
-             for name, dims in BEAMS.items()}
+             for name, dims in SECTIONS.items()}
     cases["crankshaft"] = {"geometry": {"kind": "crankshaft"}, "mesh": {"order": 2}}
     if quick:
         cases = {k: cases[k] for k in ("square", "polygon")}
