@@ -13,8 +13,11 @@
 """
 from __future__ import annotations
 
+import os
 import re
 import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
@@ -137,3 +140,74 @@ def test_a_large_selection_announces_its_estimate_and_reports_its_pivots(monkeyp
     pivots = [line for line in lines[1:] if line.startswith("selection: pivot ")]
     assert len(pivots) == 30 and pivots[-1].startswith("selection: pivot 30 of at most 30")
     assert selection.estimate_text(selection.estimated_seconds(4 + 3 * 1700)).endswith("min")
+
+
+#: Writes a results file of the test beam, damages copies of it and reads each in one
+#: process: the string heap's first object claiming a terabyte (HDF5 itself crashes on
+#: it), a dataset whose extent is 1e10 rows in a file of kilobytes (its checksum would read
+#: 80 GB), then RANDOM_DAMAGES random truncations and bit flips. Prints one word per file
+#: and the HDF5 objects left open.
+DAMAGE_SCRIPT = r"""
+import random, struct, sys
+from pathlib import Path
+import h5py
+from beams import BEAM6
+from gcms_fenicsx.config.scene import parse_scene
+from gcms_fenicsx.dynamics.run.simulate import simulate_to_file
+from gcms_fenicsx.files.reduced_model import read_reduced
+from gcms_fenicsx.files.results import ResultsError, read_results
+from gcms_fenicsx.files.versioned import ATTRIBUTES_CHECKSUM, attributes_digest
+
+folder = Path(sys.argv[1])
+good = folder / "results.h5"
+simulate_to_file(read_reduced(BEAM6), parse_scene({
+    "end_time": 0.01, "time_step": 1e-3, "joints": [{"type": "fixed", "group": "end_x0"}],
+    "outputs": {"groups": ["end_xL"]}}), good)
+damaged = []
+data = bytearray(good.read_bytes())
+heap = data.find(b"GCOL") + 16                   # the global heap's first object
+struct.pack_into("<Q", data, heap + 8, 2 ** 40)  # its size
+damaged.append(bytes(data))
+with h5py.File(folder / "extent.h5", "w") as f:
+    f.attrs["schema_version"] = 2
+    f.create_dataset("time", shape=(10 ** 10,), chunks=(64,), dtype="<f8")
+    f.attrs[ATTRIBUTES_CHECKSUM] = attributes_digest(f.attrs)
+damaged.append((folder / "extent.h5").read_bytes())
+rng = random.Random(27)
+for k in range(int(sys.argv[2])):
+    data = bytearray(good.read_bytes())
+    if k % 3 == 0:
+        data = data[:rng.randrange(len(data))]
+    for _ in range(rng.randrange(1, 20) if k % 3 else 0):
+        i = rng.randrange(len(data))
+        data[i] ^= 1 << rng.randrange(8)
+    damaged.append(bytes(data))
+baseline = h5py.h5f.get_obj_count(h5py.h5f.OBJ_ALL, h5py.h5f.OBJ_ALL)
+for k, data in enumerate(damaged):
+    path = folder / f"damaged{k}.h5"
+    path.write_bytes(data)
+    try:
+        read_results(path)
+        print("read", flush=True)
+    except ResultsError as exc:
+        print("refused" if "\n" not in str(exc) else "multi-line", flush=True)
+print("open", h5py.h5f.get_obj_count(h5py.h5f.OBJ_ALL, h5py.h5f.OBJ_ALL) - baseline)
+"""
+RANDOM_DAMAGES = 12
+
+
+def test_damaged_results_files_are_refused_one_by_one_and_never_crash_the_reader(tmp_path):
+    """Many damaged results files read in one process: each is read or refused with one
+    ResultsError line, the process survives (HDF5 crashed on the string heap's damage:
+    SIGSEGV) and finishes (the huge extent is refused before it is read), and no HDF5
+    object is left open."""
+    tests = str(Path(__file__).resolve().parent)
+    path = os.pathsep.join(filter(None, (tests, os.environ.get("PYTHONPATH"))))
+    run = subprocess.run([sys.executable, "-c", DAMAGE_SCRIPT, str(tmp_path),
+                          str(RANDOM_DAMAGES)], capture_output=True, text=True, timeout=300,
+                         env={**os.environ, "PYTHONPATH": path})
+    assert run.returncode == 0, (run.returncode, run.stderr[-2000:])
+    words = run.stdout.split()
+    assert words[:2] == ["refused", "refused"], run.stdout
+    assert len(words) == 2 + RANDOM_DAMAGES + 2 and words[-2:] == ["open", "0"], run.stdout
+    assert set(words[2:-2]) <= {"read", "refused"}, run.stdout
