@@ -97,7 +97,7 @@ def first_of_largest_component(vector: np.ndarray) -> int:
 
 
 def oriented_shape(body: Body, shapes: np.ndarray, direction: np.ndarray) -> np.ndarray:
-    """Ψ a with a ∝ D_iᵀ d at i = argmax_i ‖D_iᵀ d‖ (scene docstring; ties:
+    """Ψ a with a ∝ D_iᵀ d at i = argmax_i ‖D_iᵀ d‖ (module docstring; ties:
     :func:`first_of_largest`): the unit combination of the Mr-orthonormal ``shapes`` (n × k)
     whose displacement at some node reaches farthest along the unit ``direction``;
     SceneError if no node moves along it."""
@@ -125,7 +125,7 @@ def signed_shape(body: Body, shape: np.ndarray) -> np.ndarray:
 def farthest_axis(body: Body, shapes: np.ndarray) -> int:
     """The global axis a (0, 1, 2: x, y, z) the cluster ``shapes`` (n × k, Mr-orthonormal)
     reaches farthest along: the largest max_i ‖D_iᵀ e_a‖, the farthest any node moves along e_a
-    in any unit combination (scene docstring); within ``TIE`` of it the lowest index
+    in any unit combination (module docstring); within ``TIE`` of it the lowest index
     (:func:`first_of_largest_component`). A function of the cluster's subspace only: another
     orthonormal basis D_i R has the same row norms."""
     D = nodal_displacements(body, shapes)
@@ -134,7 +134,7 @@ def farthest_axis(body: Body, shapes: np.ndarray) -> int:
 
 @dataclass(frozen=True)
 class ModeStart:
-    """How ``[scene.initial] mode`` was shaped (rule in ``scene``'s docstring): the elastic
+    """How ``[scene.initial] mode`` was shaped (the module docstring's rule): the elastic
     modes (1-based) of its cluster, the cluster's largest relative split inside and its
     smallest to an elastic eigenvalue outside (None without one; ``spectrum.cluster_splits``),
     the rule that fixed the shape — "direction" (given), "farthest axis" (a cluster of several
@@ -180,7 +180,7 @@ class ModeStart:
 
 def start_shape(body: Body, initial: Initial, lam: np.ndarray, psi: np.ndarray,
                 index: int) -> tuple[np.ndarray, ModeStart]:
-    """The unscaled shape of elastic eigenvector ``index`` (of ``lam``, ``psi``) by the scene
+    """The unscaled shape of elastic eigenvector ``index`` (of ``lam``, ``psi``) by the module
     docstring's rule: along ``initial.direction``; without it, a cluster along its
     :func:`farthest_axis`, a single mode with :func:`signed_shape`'s sign."""
     cluster = mode_cluster(lam, index)
@@ -202,7 +202,7 @@ def start_shape(body: Body, initial: Initial, lam: np.ndarray, psi: np.ndarray,
 
 
 def initial_start(body: Body, initial: Initial) -> tuple[np.ndarray, ModeStart | None]:
-    """q0, plus the requested elastic mode (oriented as the scene docstring says) scaled to a
+    """q0, plus the requested elastic mode (oriented as the module docstring says) scaled to a
     largest nodal displacement of ``amplitude``; and how it was oriented (None without a
     mode)."""
     if initial.mode is None:
