@@ -1,5 +1,5 @@
 """Issue 27, item 4, the NumPy-only parts (``tests/test_reliability_small.py`` has the rest):
-the energy drift of a body at rest, a run too long to finish, damaged results files.
+the energy drift of a body at rest and a run too long to finish.
 
 On the committed six-mode test beam (``beams``).
 """
