@@ -285,7 +285,7 @@ def kernel_table(quick: bool, timeout: float) -> tuple[list[dict], list[str]]:
     from geometry.extent import largest_extent
 
     rows = []
-    lines = table_head("feature", *(f"{f:g}" for f in KERNEL_FRACTIONS[:-2]), "1e-6 and up")
+    lines = table_head("feature", *(heading(f) for f in KERNEL_FRACTIONS[:-2]), "1e-6 and up")
     for name, (extent, make) in KERNEL_ROWS.items():
         if quick and name not in ("I web", "crank web_thickness"):
             continue
@@ -327,9 +327,14 @@ def cell(result: dict, order: int) -> str:
     return f"{measured['gamma']:.2g}"
 
 
+def heading(x: float) -> str:
+    """A column heading for a fraction: 0.1, 1e-8 (not 1e-08)."""
+    return f"{x:g}".replace("e-0", "e-")
+
+
 def mesh_table(quick: bool, timeout: float) -> tuple[list[dict], list[str]]:
     ratios = (1, 0.1, 0.01) if quick else RATIOS
-    rows, lines = [], table_head("feature", "order", *(f"{r:g}" for r in ratios))
+    rows, lines = [], table_head("feature", "order", *(heading(r) for r in ratios))
     for name, (orders, make) in MESH_ROWS.items():
         if quick and name not in ("box wall", "crank web rim"):
             continue
@@ -344,7 +349,7 @@ def mesh_table(quick: bool, timeout: float) -> tuple[list[dict], list[str]]:
                      "results": results})
         shown = orders if name in ROUND_ROWS else (1,)
         for order in shown:
-            label = str(order) if name in ROUND_ROWS else "1, 2"
+            label = str(order) if name in ROUND_ROWS else ", ".join(map(str, orders))
             lines.append(table_row(name, label, *(
                 r["result"] if "result" in r else cell(r, order) for r in results)))
             log(lines[-1])
