@@ -383,10 +383,10 @@ def test_without_the_manifest_every_cached_file_guards_itself(reduced_once, tmp_
 @pytest.mark.slow
 def test_a_damaged_manifest_is_written_anew_and_protects_again(reduced_once, tmp_path):
     """The issue's sequence on the command line: cache.json damaged, ``gcms reduce`` reuses
-    what verifies itself and writes the manifest anew listing every cached file (before: it
-    wrote ``{"files": {}}``); then a node moved in mesh.msh with a fresh study that needs the
-    mesh (more modes) is caught by the manifest and by mesh.json in one line, and the command
-    meshes again, exit 0."""
+    the reduced model, which verifies itself, and writes the manifest anew listing it (before:
+    ``{"files": {}}``; the files it did not read are not listed on their own word); then a
+    node moved in mesh.msh with a study that needs the mesh (more modes) is caught by
+    mesh.json's record in one line, and the command meshes again, exit 0."""
     import shutil
 
     config, source = reduced_once
@@ -396,8 +396,7 @@ def test_a_damaged_manifest_is_written_anew_and_protects_again(reduced_once, tmp
     run = gcms("reduce", str(config), "--out", str(out))
     assert run.returncode == 0, run.stderr
     assert "cache.json is damaged" in run.stderr and "reusing" in run.stderr, run.stderr
-    manifest = json.loads((out / "cache.json").read_text())["files"]
-    assert set(manifest) == {"mesh.msh", "mesh.json", "modes.h5", "reduced.h5"}
+    assert set(json.loads((out / "cache.json").read_text())["files"]) == {"reduced.h5"}
     _move_a_node(out / "mesh.msh")
     more = tmp_path / "more.toml"
     more.write_text(beam_study(8))
@@ -406,3 +405,31 @@ def test_a_damaged_manifest_is_written_anew_and_protects_again(reduced_once, tmp
     assert "mesh.msh does not match its checksum" in run.stderr, run.stderr
     assert "Traceback" not in run.stderr
     assert stages(out)["mesh"] == "computed"
+
+
+def test_the_manifest_lists_only_what_was_checked(reduced_once, tmp_path):
+    """cache.json lost, mesh.json of an earlier version (no checksums) and a damaged mesh.msh
+    beside an intact reduced.h5: the command reuses reduced.h5 and writes the manifest anew
+    with reduced.h5 only — mesh.msh, which nothing read, is not listed on its own word (it
+    was hashed into the manifest before, and then trusted by the next command)."""
+    import shutil
+
+    from gcms_fenicsx.app import stage_cache
+    from gcms_fenicsx.config.study import load_config
+
+    config, source = reduced_once
+    out = tmp_path / "out"
+    shutil.copytree(source, out)
+    (out / "cache.json").unlink()
+    record = json.loads((out / "mesh.json").read_text())
+    for key in ("mesh_sha256", "document_sha256"):
+        record.pop(key)
+    (out / "mesh.json").write_text(json.dumps(record))
+    _damage(out, "mesh.msh bit")
+    reuse = stage_cache.reuse(load_config(config).plan.body, out, "reduced", False,
+                              lambda line: None)
+    assert reuse.reduced is not None and reuse.mesh is None
+    folder = tmp_path / "staged"
+    folder.mkdir()
+    stage_cache.write_manifest(out, folder, (), reuse)
+    assert set(json.loads((folder / "cache.json").read_text())["files"]) == {"reduced.h5"}

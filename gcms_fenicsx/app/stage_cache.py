@@ -79,6 +79,14 @@ class Reuse:
             MESH_PRODUCT if self.mesh is not None else ()
         return reused + (("reduced.h5", "selection.json") if self.reduced is not None else ())
 
+    def verified(self) -> tuple[str, ...]:
+        """The cached files of ``--out`` this plan checked before reusing them: not those a
+        reuse further down merely leaves in place (a reused reduced.h5 leaves mesh.msh and
+        modes.h5 unread)."""
+        return (("mesh.msh", "mesh.json") if self.mesh is not None else ()) + \
+            (("modes.h5",) if self.modes is not None else ()) + \
+            (("reduced.h5",) if self.reduced is not None else ())
+
 
 def owned_files(reuse: Reuse, owns: tuple[str, ...]) -> tuple[str, ...]:
     """The files of ``owns`` the command replaces, or removes if it does not write them."""
@@ -102,14 +110,14 @@ def read_manifest(out: Path) -> dict[str, str] | None:
 
 
 def write_manifest(out: Path, folder: Path, owned: tuple[str, ...], reuse: Reuse) -> None:
-    """``folder/cache.json``: the cached files this command staged and those it reused (the
-    reuse verified them), hashed, and the entries of ``out``'s manifest for the other cached
-    files it leaves as they are (not in ``owned``)."""
+    """``folder/cache.json``: the cached files this command staged and those it checked and
+    reused (:meth:`Reuse.verified`), hashed, and the entries of ``out``'s manifest for the
+    other cached files it leaves as they are (not in ``owned``): a file nothing checked is
+    never listed on its own word."""
     from gcms_fenicsx.files.outputs import write_json
 
     files = {name: sha for name, sha in (read_manifest(out) or {}).items() if name not in owned}
-    files.update({name: file_sha256(out / name) for name in reuse.kept()
-                  if name in CACHED_FILES and (out / name).is_file()})
+    files.update({name: file_sha256(out / name) for name in reuse.verified()})
     files.update({name: file_sha256(folder / name) for name in CACHED_FILES
                   if (folder / name).is_file()})
     write_json(folder / MANIFEST, {"files": dict(sorted(files.items()))})
