@@ -28,6 +28,8 @@ JACOBIANS = ("rotated", "exact", "assembled")
 #: ``[scene] elasticity``: co-rotated linear (``dynamics.bodies.corotated``) or Saint Venant–Kirchhoff
 #: with constant coefficients (``dynamics.bodies.svk``).
 ELASTICITIES = ("corotated", "svk")
+#: ``[scene.solver] kernel``: which step runs (``dynamics.stepping.kernel``).
+KERNELS = ("auto", "numba", "numpy")
 
 
 #: ``ramp`` of a drive: how θ̇ rises from 0 to Ω over the ramp time (``Drive``).
@@ -137,11 +139,16 @@ class Solver:
     turned with the frame; exact terms added to a step that converges slowly), "exact"
     (with the change-of-frame terms from the first iteration) or "assembled" (the exact
     matrix assembled and factorised every iteration: the baseline).
+
+    ``kernel`` (``stepping.kernel``): "auto" steps with the compiled kernel where Numba is
+    installed and the scene is one it runs, else in NumPy; "numba" insists; "numpy" is the
+    reference path.
     """
 
     tolerance: float = 1e-10
     max_iterations: int = 25
     jacobian: str = "rotated"
+    kernel: str = "auto"
 
 
 @dataclass(frozen=True)
@@ -291,7 +298,8 @@ def parse_scene(raw: Mapping[str, Any] | None) -> Scene | None:
     solver = Solver(tolerance=s.number("tolerance", default.tolerance, low=1e-15, high=1e-3),
                     max_iterations=s.integer("max_iterations", default.max_iterations, low=1,
                                              high=1000),
-                    jacobian=s.choice("jacobian", JACOBIANS, default.jacobian))
+                    jacobian=s.choice("jacobian", JACOBIANS, default.jacobian),
+                    kernel=s.choice("kernel", KERNELS, default.kernel))
     s.finish()
 
     i = Table("scene.initial", t.subtable("initial"))

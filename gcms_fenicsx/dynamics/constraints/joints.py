@@ -94,7 +94,7 @@ class Constraints:
         return len(self.index)
 
     @cached_property
-    def _turning(self) -> tuple[tuple[int, Drive, np.ndarray, np.ndarray, np.ndarray], ...]:
+    def turning(self) -> tuple[tuple[int, Drive, np.ndarray, np.ndarray, np.ndarray], ...]:
         """(row, drive, u, e × u, e (e · u)) of every driven row, u at θ = 0."""
         return tuple((i, drive, u, np.cross(axis, u), axis * float(axis @ u))
                      for i, (drive, axis) in self.drives.items()
@@ -111,7 +111,7 @@ class Constraints:
         if not self.drives:
             return U
         U = U.copy()
-        for i, drive, u, e_u, along in self._turning:
+        for i, drive, u, e_u, along in self.turning:
             theta, rate, accel = drive.angle(t)
             c, s = math.cos(theta), math.sin(theta)
             if derivative == 0:

@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -148,6 +149,25 @@ class Extremes:
         return None if self.energy_drift is None else self.balance
 
 
+class RawRows(NamedTuple):
+    """The block of raw rows and the work integrals, as arrays: what a recorded step writes,
+    in Python (:meth:`Recorder.step`) or in the compiled step (``stepping.compiled``), which
+    keeps the same accounts in the same arrays. ``counters``: rows filled, whether ``power``
+    holds the previous step's powers."""
+
+    qv: np.ndarray             # (rows, 2, n): q and q̇
+    multipliers: np.ndarray    # (rows, m or 0)
+    scalars: np.ndarray        # (rows, 6): t, Newton iterations, V, load, constraint, damping work
+    work: np.ndarray           # (3,): load, constraint, damping work so far
+    power: np.ndarray          # (3,): their powers at the last step accounted
+    counters: np.ndarray       # int64 (2,)
+    every: int
+    last_step: int
+    energy: bool
+    loads: bool
+    half_step: float
+
+
 class Recorder:
     """Rows for the steps ``0, every, 2·every, …`` and the last one, handed to ``sink`` in
     blocks; field snapshots at ``plan.snapshot_steps``.
@@ -172,69 +192,72 @@ class Recorder:
                  lift: np.ndarray | None = None) -> None:
         self.body, self.c, self.forces, self.out = body, constraints, forces, outputs
         self.plan, self.sink, self.lift = plan, sink, lift
-        self.h = time_step_s
         n = body.dofs if lift is None else lift.shape[1]
         m = constraints.count if outputs.constraint_forces else 0
         rows = max(1, min(plan.block_rows, BLOCK_BYTES // (8 * (2 * n + m + 6))))
-        self.qv = np.zeros((rows, 2, n))
-        self.multipliers = np.zeros((rows, m))
-        self.scalars: list[tuple] = []   # t, iterations, V, load, constraint, damping work
-        self.filled = 0
+        self.raw = RawRows(qv=np.zeros((rows, 2, n)), multipliers=np.zeros((rows, m)),
+                           scalars=np.zeros((rows, 6)), work=np.zeros(3), power=np.zeros(3),
+                           counters=np.zeros(2, dtype=np.int64), every=outputs.every,
+                           last_step=plan.steps, energy=outputs.energy,
+                           loads=bool(forces.loads), half_step=0.5 * time_step_s)
         self.last_time: float | None = None
         self.extremes = Extremes(energy_floor_j(body, time_step_s))
-        self.energy = outputs.energy
-        self.loads = bool(forces.loads)
-        self.work = [0.0, 0.0, 0.0]     # load, constraint, damping
-        self._power: tuple[float, float, float] | None = None
         self._initial_energy: float | None = None
+
+    @property
+    def filled(self) -> int:
+        """Rows in the block not yet handed to the sink."""
+        return int(self.raw.counters[0])
 
     def step(self, index: int, s: State, info: StepInfo, last: bool = False) -> None:
         """Account for step ``index`` (0 = initial state) and record it if it is due: add the
         powers of the loads (f_ext without gravity), of the constraint forces (−λ · C q̇) and
-        of the damping to the work integrals."""
-        if self.energy:
+        of the damping to the work integrals (the trapezoidal rule over every step)."""
+        raw = self.raw
+        if raw.energy:
             v = s.Z[1]
-            load = (info.external_force - self.forces.gravity_force).dot(v) if self.loads \
+            load = (info.external_force - self.forces.gravity_force).dot(v) if raw.loads \
                 else 0.0
             constraint = -s.lam.dot(info.jacobian.dot(v)) if info.jacobian is not None else 0.0
-            power = (float(load), float(constraint), info.dissipation_w)
-            before, w, half_h = self._power, self.work, 0.5 * self.h
-            if before is not None:
-                w[0] += half_h * (before[0] + power[0])
-                w[1] += half_h * (before[1] + power[1])
-                w[2] += half_h * (before[2] + power[2])
-            self._power = power
+            power, w = raw.power, raw.work
+            if raw.counters[1]:
+                w += raw.half_step * (power + (load, constraint, info.dissipation_w))
+            power[:] = load, constraint, info.dissipation_w
+            raw.counters[1] = 1
+        self.snapshot(index, s)
+        if last or index % raw.every == 0:
+            self.record(s, info)
+
+    def snapshot(self, index: int, s: State) -> None:
+        """The field snapshot of step ``index``, if the plan asks for one."""
         if index in self.plan.snapshot_steps:
             q = s.q if self.lift is None else self.lift.dot(s.q)
             self.sink.snapshot(s.t, self.body.displacement(q))
-        if last or index % self.out.every == 0:
-            self.record(s, info)
 
     def record(self, s: State, info: StepInfo) -> None:
         """Copy the raw row of a state already accounted for by :meth:`step`."""
+        raw = self.raw
         k = self.filled
-        self.qv[k] = s.Z[:2]
-        if self.multipliers.shape[1]:
-            self.multipliers[k] = s.lam
-        w = self.work
-        self.scalars.append((s.t, info.iterations, info.elastic.energy if self.energy else 0.0,
-                             w[0], w[1], w[2]))
+        raw.qv[k] = s.Z[:2]
+        if raw.multipliers.shape[1]:
+            raw.multipliers[k] = s.lam
+        raw.scalars[k, :3] = s.t, info.iterations, info.elastic.energy if raw.energy else 0.0
+        raw.scalars[k, 3:] = raw.work
         self.last_time = s.t
-        self.filled = k + 1
-        if self.filled == len(self.qv):
+        raw.counters[0] = k + 1
+        if k + 1 == len(raw.qv):
             self.flush()
 
     def flush(self) -> None:
         """Compute the block's series from its raw rows and hand them to the sink."""
-        k = self.filled
+        k, raw = self.filled, self.raw
         if not k:
             return
         body, out = self.body, self.out
-        qv = self.qv[:k] if self.lift is None else self.qv[:k].dot(self.lift.T)
+        qv = raw.qv[:k] if self.lift is None else raw.qv[:k].dot(self.lift.T)
         Q = qv[:, 0].reshape(k, -1, 3)
         V = qv[:, 1].reshape(k, -1, 3)
-        scalars = np.array(self.scalars, dtype=float)
-        self.scalars = []
+        scalars = raw.scalars[:k]
         block = {"time": scalars[:, 0].copy(),
                  "newton_iterations": scalars[:, 1].astype("<i4")}
         for g in out.groups:
@@ -242,12 +265,12 @@ class Recorder:
             block[f"groups/{g}/position"] = np.matmul(h, Q)
             block[f"groups/{g}/velocity"] = np.matmul(h, V)
         kinetic, block["momentum/linear"], block["momentum/angular"] = body.momenta(Q, V)
-        block[MULTIPLIERS] = self.multipliers[:k]
+        block[MULTIPLIERS] = raw.multipliers[:k].copy()
         if out.coordinates:
             block["coordinates/q"], block["coordinates/v"] = qv[:, 0], qv[:, 1]
-        if self.energy:
-            elastic, w = scalars[:, 2], scalars[:, 3:]
-            gravity = self.forces.gravity_potential(self.qv[:k, 0])
+        if raw.energy:
+            elastic, w = scalars[:, 2].copy(), scalars[:, 3:].copy()
+            gravity = self.forces.gravity_potential(raw.qv[:k, 0])
             total = kinetic + elastic + gravity
             if self._initial_energy is None:
                 self._initial_energy = float(total[0])
@@ -259,4 +282,4 @@ class Recorder:
                                                    - w[:, 1] + w[:, 2])})
         self.extremes.update(block)
         self.sink.append(block)
-        self.filled = 0
+        raw.counters[0] = 0

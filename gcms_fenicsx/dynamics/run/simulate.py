@@ -25,15 +25,16 @@ import numpy as np
 from gcms_fenicsx.config.basis import AttachmentLoad, ScenePatterns
 from gcms_fenicsx.dynamics.bodies.body import Body, body_from_reduced, elastic_modes
 from gcms_fenicsx.dynamics.run.capacity import (Capacity, check_capacity, disk_capacity,
-                                          format_bytes, format_duration, memory_capacity)
+                                          format_bytes, memory_capacity)
 from gcms_fenicsx.dynamics.bodies.corotated import elastic_state
 from gcms_fenicsx.dynamics.bodies.damping import RayleighDamping
-from gcms_fenicsx.dynamics.stepping.errors import IntegrationError
 from gcms_fenicsx.dynamics.constraints.factorization import (Factorize, dense_factorization,
                                                  mass_factorization)
 from gcms_fenicsx.dynamics.stepping.initial import (ModeStart, consistent_state, consistent_velocity,
                                            initial_coordinates, initial_start)
 from gcms_fenicsx.dynamics.stepping.integrator import GeneralizedAlpha
+from gcms_fenicsx.dynamics.stepping.kernel import CompiledStepper, KernelChoice, choose_kernel
+from gcms_fenicsx.dynamics.run.march import Start, Stepped, march, warm_up
 from gcms_fenicsx.dynamics.stepping.state import Elastic, State, StepInfo
 from gcms_fenicsx.dynamics.constraints.joints import Constraints, build_constraints
 from gcms_fenicsx.dynamics.bodies.loads import ExternalForces, external_forces
@@ -54,7 +55,6 @@ from gcms_fenicsx.files.reduced_model import ReducedModel, ReducedModelError
 __all__ = ["elastic_modes", "initial_coordinates", "modal_history", "simulate",
            "simulate_body", "simulate_to_file"]
 
-PROGRESS_INTERVAL_S = 2.0
 #: Opens the sink a run records into, once its plan is known.
 OpenSink = Callable[[RecordPlan], Sink]
 
@@ -165,24 +165,13 @@ class Prepared:
     kinetic_given_j: float   # of the initial velocity asked for
     kinetic_kept_j: float    # of the one the joints allow
     start: ModeStart | None  # how the initial mode was shaped (None without one)
+    kernel: KernelChoice     # the compiled step or NumPy's (``stepping.kernel``)
+    stepper: CompiledStepper | None
 
     def warnings(self, scene: Scene) -> list[str]:
         """The scene's warnings and the initial mode's (``ModeStart.warning``)."""
         warning = self.start.warning() if self.start is not None else None
         return scene.warnings() + ([warning] if warning else [])
-
-
-@dataclass(frozen=True)
-class Stepped:
-    """How the time loop ended: the last converged state and what its step left."""
-
-    complete: bool
-    message: str
-    steps: int
-    newton_iterations: int
-    wall_s: float
-    state: State
-    info: StepInfo
 
 
 def _full(body: Body | RotorBody) -> Body:
@@ -211,14 +200,18 @@ def _run(body: Body | RotorBody, scene: Scene, open_sink: OpenSink, capacity: Ca
                         body.coordinates if isinstance(body, RotorBody) else None)
     recorder.step(0, run.state, run.info)
     setup_s = time.perf_counter() - t_setup
-    stepped = _march(run, recorder, scene, progress)
+    kernel, stepper = warm_up(run.kernel, run.stepper, recorder, run.state, progress,
+                              scene.solver.kernel)
+    stepped = march(Start(run.integrator, run.state, run.info, run.plan.steps,
+                          run.plan.snapshot_steps, scene.end_time_s), recorder, progress, stepper)
     if not stepped.complete and recorder.last_time != stepped.state.t:
         recorder.record(stepped.state, stepped.info)   # the last converged state
     recorder.flush()
     rows = finite_json([asdict(r) for r in run.constraints.rows]) \
         if scene.outputs.constraint_forces and run.constraints.count else []  # as JSON reads
     traj = sink.close(RunInfo(stepped.complete, stepped.message, model_hash, asdict(scene), rows))
-    return _summary(body, scene, run, stepped, recorder.extremes, setup_s, model_hash), traj
+    return _summary(body, scene, run, stepped, recorder.extremes, setup_s, model_hash,
+                    kernel), traj
 
 
 def prepare_run(body: Body | RotorBody, scene: Scene, capacity: Capacity,
@@ -282,10 +275,12 @@ def prepare_run(body: Body | RotorBody, scene: Scene, capacity: Capacity,
     except InvertedBodyError as exc:
         raise SceneError(f"[scene.initial] the initial state inverts the body: {exc}; lower "
                          "amplitude") from exc
+    kernel, stepper = choose_kernel(integrator, scene.solver.kernel, progress)
     return Prepared(constraints=constraints, plan=plan, forces=forces, integrator=integrator,
                     state=state, info=info,
                     kinetic_given_j=kinetic_given,
-                    kinetic_kept_j=0.5 * float(v @ (body.mass @ v)), start=start)
+                    kinetic_kept_j=0.5 * float(v @ (body.mass @ v)), start=start,
+                    kernel=kernel, stepper=stepper)
 
 
 #: An initial mode shape whose energy under another elastic law differs from the linear one
@@ -318,31 +313,9 @@ def nonlinear_start(body: Body, elastic: Elastic, q: np.ndarray, scene: Scene) -
             f"{scale * amplitude:.2g} m keeps the two within {NONLINEAR_START:.0%}")
 
 
-def _march(run: Prepared, recorder: Recorder, scene: Scene, progress: Progress) -> Stepped:
-    """The time loop: step, record, report progress; a failed step ends it (incomplete)."""
-    state, info, steps = run.state, run.info, run.plan.steps
-    complete, message, done, iterations = True, "", 0, 0
-    start = last_report = time.perf_counter()
-    for index in range(1, steps + 1):
-        try:
-            state, info = run.integrator.step(state)
-        except IntegrationError as exc:
-            complete, message = False, str(exc)
-            break
-        done = index
-        iterations += info.iterations
-        recorder.step(index, state, info, last=index == steps)
-        now = time.perf_counter()
-        if now - last_report > PROGRESS_INTERVAL_S:
-            last_report = now
-            progress(_progress_line(state.t, scene.end_time_s, index, steps, now - start))
-    return Stepped(complete=complete, message=message, steps=done,
-                   newton_iterations=iterations, wall_s=time.perf_counter() - start,
-                   state=state, info=info)
-
-
 def _summary(body: Body | RotorBody, scene: Scene, run: Prepared, stepped: Stepped,
-             extremes: Extremes, setup_s: float, model_hash: str) -> dict:
+             extremes: Extremes, setup_s: float, model_hash: str,
+             kernel: KernelChoice) -> dict:
     """``summary.json``: finite numbers or None."""
     done, wall = stepped.steps, stepped.wall_s
     return finite_json({
@@ -365,6 +338,7 @@ def _summary(body: Body | RotorBody, scene: Scene, run: Prepared, stepped: Stepp
         "newton_iterations_mean": stepped.newton_iterations / done if done else None,
         "newton_iterations_max": extremes.iterations,
         "jacobian": scene.solver.jacobian,
+        "kernel": kernel.summary(),
         "elasticity": scene.elasticity,
         "basis": "rotor" if isinstance(body, RotorBody) else "full",
         "rotor_basis": rotor_summary(body) if isinstance(body, RotorBody) else None,
@@ -383,11 +357,3 @@ def _rows_text(constraints: Constraints) -> str:
     """The dropped rows, as "joint kind [axis], …"."""
     return ", ".join(f"{r.joint} {r.kind} {np.round(r.axis, 3).tolist()}"
                      for r in constraints.dropped)
-
-
-def _progress_line(t: float, end_time: float, index: int, steps: int, elapsed: float) -> str:
-    """Where a run is, how fast it goes and when it ends (the rate so far)."""
-    rate = index / elapsed if elapsed > 0 else float("inf")
-    return (f"simulate: t = {t:.4g} / {end_time:g} s ({index} of {steps} steps, {rate:.0f} "
-            f"steps/s, ETA {format_duration((steps - index) / rate)})")
-

@@ -53,10 +53,11 @@ from gcms_fenicsx.dynamics.stepping.alpha import AlphaParameters, newton_coeffic
 from gcms_fenicsx.dynamics.bodies.body import Body
 from gcms_fenicsx.dynamics.bodies.corotated import elastic_state, local_frame_update
 from gcms_fenicsx.dynamics.bodies.damping import RayleighDamping
+from gcms_fenicsx.dynamics.stepping.kernel_data import law_kind
 from gcms_fenicsx.dynamics.stepping.errors import IntegrationError, SingularMatrixError
 from gcms_fenicsx.dynamics.constraints.factorization import (Factorize, Solve, dense_factorization,
                                                  singular_iteration_matrix)
-from gcms_fenicsx.dynamics.constraints.jacobian import UPGRADE_RATE, JacobianPolicy
+from gcms_fenicsx.dynamics.constraints.jacobian import TANGENT_RATE, UPGRADE_RATE, JacobianPolicy
 from gcms_fenicsx.dynamics.constraints.joints import Constraints
 from gcms_fenicsx.dynamics.constraints.kkt import AssembledKKT, BorderedKKT, TangentKKT
 from gcms_fenicsx.dynamics.bodies.loads import ExternalForces
@@ -64,13 +65,6 @@ from gcms_fenicsx.numerics.rotation import InvertedBodyError
 from gcms_fenicsx.dynamics.bodies.rotor import RotorBody, rotor_frame_update, rotor_state
 from gcms_fenicsx.config.scene import Solver
 from gcms_fenicsx.dynamics.stepping.state import Elastic, State, StepInfo
-
-#: A law with an exact tangent (``svk``) switches to it when a correction shrinks by less than
-#: this factor: a tangent costs about twelve of its residuals (2.5 ms against 0.2 ms at 47
-#: fields), so a slow but converging iteration is cheaper than it. The flexible pendulum
-#: (Nm = 10 with attachment modes, 1000 steps): 1.7 s with this switch, 3.5 s with the
-#: tangent in every step after the first that needed it.
-TANGENT_RATE = 0.9
 
 
 class GeneralizedAlpha:
@@ -130,6 +124,8 @@ class GeneralizedAlpha:
                             if not corotated and isinstance(body.mass, np.ndarray)
                             and hasattr(self.elastic(body.q0), "tangent") else None)
         self.with_tangent = False
+        #: the compiled step's name for the elastic law (``kernel_data``), None for another
+        self.law_kind = law_kind(body, self.elastic, corotated)
 
     def _factorized(self, S0, factorize: Factorize) -> Solve:
         """S₀⁻¹; a singular S₀ explained (``factorization.singular_iteration_matrix``)."""

@@ -1,0 +1,219 @@
+"""The compiled step's small dense algebra: 3 × 3 matrices and (k × 3) field arrays written out
+as loops (a BLAS call costs more than their arithmetic), the polar decomposition by Newton's
+iteration, and an LU factorisation for the bordered system's capacitance matrix. Numba."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+JIT = dict(cache=True, nogil=True, error_model="numpy")
+#: The polar decomposition's Newton iteration X ← ½ (X + X⁻ᵀ) stops when a step changes X by
+#: at most this many ulps of its largest entry (it converges quadratically: 3–4 steps at
+#: strains of 1e-2), and scales X by |det X|^(−1/3) while a step still changes it by more than
+#: ``POLAR_SCALED`` (Higham, SIAM J. Sci. Stat. Comput. 7(4), 1986).
+POLAR_ULPS = 4.0
+POLAR_SCALED = 1e-2
+POLAR_STEPS = 100
+#: rotation.polar's bound: a map whose singular values spread over more than this is
+#: degenerate (here from ‖U‖_F ‖U⁻¹‖_F, which bounds the spread within a factor 3).
+POLAR_SPREAD = 1e12
+EPS = 2.220446049250313e-16
+
+
+@njit(**JIT)
+def skew(w):
+    S = np.zeros((3, 3))
+    S[0, 1], S[0, 2], S[1, 2] = -w[2], w[1], -w[0]
+    S[1, 0], S[2, 0], S[2, 1] = w[2], -w[1], w[0]
+    return S
+
+
+@njit(**JIT)
+def axial(Y):
+    """rotation.axial: w(Y)."""
+    return np.array([Y[2, 1] - Y[1, 2], Y[0, 2] - Y[2, 0], Y[1, 0] - Y[0, 1]])
+
+
+@njit(**JIT)
+def xe(a, k, j):
+    """(a × e_k)_j = ε_jik a_i: a scalar, so the loops over fields allocate nothing."""
+    if j == k:
+        return 0.0
+    i = 3 - j - k
+    return a[i] if i == (j + 1) % 3 else -a[i]
+
+
+@njit(**JIT)
+def mat3(A, B, transpose_a=False):
+    """A B (or Aᵀ B) of 3 × 3 matrices."""
+    out = np.zeros((3, 3))
+    for i in range(3):
+        for k in range(3):
+            a = A[k, i] if transpose_a else A[i, k]
+            for j in range(3):
+                out[i, j] += a * B[k, j]
+    return out
+
+
+@njit(**JIT)
+def mv3(M, x):
+    """M x (3 × 3, 3)."""
+    return np.array([M[0, 0] * x[0] + M[0, 1] * x[1] + M[0, 2] * x[2],
+                     M[1, 0] * x[0] + M[1, 1] * x[1] + M[1, 2] * x[2],
+                     M[2, 0] * x[0] + M[2, 1] * x[1] + M[2, 2] * x[2]])
+
+
+@njit(**JIT)
+def tmul(X, Y):
+    """Xᵀ Y for X, Y (k × 3): 3 × 3."""
+    out = np.zeros((3, 3))
+    for f in range(X.shape[0]):
+        for i in range(3):
+            x = X[f, i]
+            for j in range(3):
+                out[i, j] += x * Y[f, j]
+    return out
+
+
+@njit(**JIT)
+def mul(X, M):
+    """X M for X (k × 3), M (3 × 3): k × 3."""
+    out = np.empty((X.shape[0], 3))
+    for f in range(X.shape[0]):
+        x0, x1, x2 = X[f, 0], X[f, 1], X[f, 2]
+        for j in range(3):
+            out[f, j] = x0 * M[0, j] + x1 * M[1, j] + x2 * M[2, j]
+    return out
+
+
+@njit(**JIT)
+def gram_product(G, X):
+    """G X for G (nf × nf) and X (nf × k, k small), as k matrix-vector products (one BLAS
+    product with k columns is slower at these shapes)."""
+    nf, k = X.shape
+    XT = np.ascontiguousarray(X.T)
+    out = np.empty((nf, k))
+    for j in range(k):
+        out[:, j] = G @ XT[j]
+    return out
+
+
+@njit(**JIT)
+def remove(X, a, b):
+    """X − a (bᵀ X) for X (nf × 3): Π X with a = k1, b = g1/m, Πᵀ X with a = g1/m, b = k1
+    (``Body.projections``: Π = I − k1 g1ᵀ / m, applied as the rank-one update it is)."""
+    c = np.zeros(3)
+    for f in range(X.shape[0]):
+        for j in range(3):
+            c[j] += b[f] * X[f, j]
+    out = np.empty_like(X)
+    for f in range(X.shape[0]):
+        for j in range(3):
+            out[f, j] = X[f, j] - a[f] * c[j]
+    return out
+
+
+@njit(**JIT)
+def _inv3(A):
+    """(A⁻¹, det A) of a 3 × 3 matrix, by cofactors."""
+    C = np.empty((3, 3))
+    C[0, 0] = A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1]
+    C[0, 1] = A[0, 2] * A[2, 1] - A[0, 1] * A[2, 2]
+    C[0, 2] = A[0, 1] * A[1, 2] - A[0, 2] * A[1, 1]
+    C[1, 0] = A[1, 2] * A[2, 0] - A[1, 0] * A[2, 2]
+    C[1, 1] = A[0, 0] * A[2, 2] - A[0, 2] * A[2, 0]
+    C[1, 2] = A[0, 2] * A[1, 0] - A[0, 0] * A[1, 2]
+    C[2, 0] = A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]
+    C[2, 1] = A[0, 1] * A[2, 0] - A[0, 0] * A[2, 1]
+    C[2, 2] = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+    det = A[0, 0] * C[0, 0] + A[0, 1] * C[1, 0] + A[0, 2] * C[2, 0]
+    return C / det, det
+
+
+@njit(**JIT)
+def polar(A):
+    """rotation.polar, by Newton's iteration instead of an SVD: (R, U, S⁻¹, ok) with A = R U
+    and S = tr U · I − U (``rotation.rotation_rate``); not ok for an inverted, degenerate or
+    non-finite A (the NumPy step then says which)."""
+    eye = np.eye(3)
+    if not np.all(np.isfinite(A)):
+        return eye, eye, eye, False
+    X = A.copy()
+    Xi, det = _inv3(X)
+    if not det > 0.0:
+        return eye, eye, eye, False
+    for _ in range(POLAR_STEPS):
+        change = 0.0
+        size = 0.0
+        scale = abs(det) ** (-1.0 / 3.0)
+        Xn = np.empty((3, 3))
+        for i in range(3):
+            for j in range(3):
+                Xn[i, j] = 0.5 * (scale * X[i, j] + Xi[j, i] / scale)
+                change = max(change, abs(Xn[i, j] - X[i, j]))
+                size = max(size, abs(Xn[i, j]))
+        if change > POLAR_SCALED:
+            X = Xn
+            Xi, det = _inv3(X)
+            continue
+        for i in range(3):              # unscaled near the rotation: quadratic convergence
+            for j in range(3):
+                Xn[i, j] = 0.5 * (X[i, j] + Xi[j, i])
+        change = np.abs(Xn - X).max()
+        X = Xn
+        if change <= POLAR_ULPS * EPS * size:
+            break
+        Xi, det = _inv3(X)
+    U = mat3(X, A, True)
+    U = 0.5 * (U + U.T)
+    Ui, det_u = _inv3(U)
+    spread = math.sqrt((U * U).sum() * (Ui * Ui).sum())
+    S_inv, _ = _inv3((U[0, 0] + U[1, 1] + U[2, 2]) * eye - U)
+    return X, U, S_inv, det_u > 0.0 and spread < POLAR_SPREAD
+
+
+@njit(**JIT)
+def lu_factor(A):
+    """A = P L U in place (partial pivoting): the pivots."""
+    k = A.shape[0]
+    piv = np.empty(k, dtype=np.int64)
+    for c in range(k):
+        p = c
+        big = abs(A[c, c])
+        for i in range(c + 1, k):
+            if abs(A[i, c]) > big:
+                big, p = abs(A[i, c]), i
+        piv[c] = p
+        if p != c:
+            for j in range(k):
+                A[c, j], A[p, j] = A[p, j], A[c, j]
+        inv = 1.0 / A[c, c]
+        for i in range(c + 1, k):
+            f = A[i, c] * inv
+            A[i, c] = f
+            if f != 0.0:
+                for j in range(c + 1, k):
+                    A[i, j] -= f * A[c, j]
+    return piv
+
+
+@njit(**JIT)
+def lu_solve(LU, piv, b):
+    """x with A x = b from :func:`_lu_factor`."""
+    k = LU.shape[0]
+    x = b.copy()
+    for c in range(k):                 # P b: the rows were swapped whole, L's columns too
+        p = piv[c]
+        if p != c:
+            x[c], x[p] = x[p], x[c]
+    for c in range(k):
+        for i in range(c + 1, k):
+            x[i] -= LU[i, c] * x[c]
+    for i in range(k - 1, -1, -1):
+        acc = x[i]
+        for j in range(i + 1, k):
+            acc -= LU[i, j] * x[j]
+        x[i] = acc / LU[i, i]
+    return x

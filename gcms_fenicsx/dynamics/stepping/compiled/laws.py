@@ -1,0 +1,185 @@
+"""The compiled step's frames and elastic laws: T on GCMS and rotor coordinates
+(``body.FieldFrame``, ``rotor.RotorFrame``), and the co-rotated law in both bases and the
+Saint Venant–Kirchhoff law, with Rayleigh damping (``corotated``, ``rotor``, ``svk``,
+``damping``). Numba."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from gcms_fenicsx.dynamics.stepping.compiled.algebra import (JIT, axial, gram_product, mat3, mul,
+                                                             mv3, polar, remove, skew, tmul)
+
+COLLAPSED = 1e-12   # rotor.COLLAPSED
+
+
+@njit(**JIT)
+def _turn_pairs(y, pairs, c, s):
+    """A copy of y with its first ``pairs`` pairs (ξ + iζ) multiplied by c + i s."""
+    out = y.copy()
+    for j in range(pairs):
+        x, z = y[2 * j], y[2 * j + 1]
+        out[2 * j] = x * c - z * s
+        out[2 * j + 1] = x * s + z * c
+    return out
+
+
+@njit(**JIT)
+def _to_local(rotor, pairs, y, R, phase):
+    """Tᵀ y."""
+    if rotor:
+        return _turn_pairs(y, pairs, phase[0], -phase[1])
+    return mul(y.reshape(-1, 3), R).ravel()
+
+
+@njit(**JIT)
+def residual(rotor, pairs, y, gradient, R_state, phase_state, same, R, phase):
+    """FieldFrame.residual / RotorFrame.residual: Tᵀ y + (T_Rᵀ T_state) gradient."""
+    r = _to_local(rotor, pairs, y, R, phase)
+    if rotor:
+        if phase_state[0] == phase[0] and phase_state[1] == phase[1]:
+            r += gradient
+        else:
+            z = complex(phase[0], phase[1]) / complex(phase_state[0], phase_state[1])
+            r += _turn_pairs(gradient, pairs, z.real, -z.imag)
+    elif same:
+        r += gradient
+    else:
+        r += mul(gradient.reshape(-1, 3), mat3(R_state, R, True)).ravel()
+    return r
+
+
+@njit(**JIT)
+def back(rotor, pairs, z, R, phase):
+    """−T z."""
+    if rotor:
+        return _turn_pairs(-z, pairs, phase[0], phase[1])
+    return mul(z.reshape(-1, 3), -R.T).ravel()
+
+
+@njit(**JIT)
+def corotated_state(q, v, H, k1, g1m, q0p, KP, mass_projected, damping, alpha, beta):
+    """corotated.elastic_state with damping.DampingForce.local_force, fused (module
+    docstring): (ok, R, U, S⁻¹, Tᵀ(∂V/∂q + f_d) (n,), Q_loc, e, ė, z = (Πᵀ ⊗ I3) Kr (e + β ė)).
+    The energy, the dissipation and the elastic part alone follow from these
+    (:func:`_corotated_parts`). One pass over the fields per quantity: Q_loc = Q R,
+    e = Π Q_loc − Π Q0, ė = Π (Q̇ R + Q_loc [ω]×) with ω = S⁻¹ w(Rᵀ Q̇ᵀ H), and the force
+    P − H [b]× row by row (h_fᵀ [b]× = h_f × b)."""
+    nf = H.shape[0]
+    Q = q.reshape(nf, 3)
+    R, U, S_inv, ok = polar(tmul(Q, H))
+    local = mul(Q, R)
+    c = np.zeros(3)
+    for f in range(nf):
+        for j in range(3):
+            c[j] += g1m[f] * local[f, j]
+    e = np.empty((nf, 3))
+    for f in range(nf):
+        for j in range(3):
+            e[f, j] = local[f, j] - k1[f] * c[j] - q0p[f, j]
+    rate = np.zeros((nf, 3))
+    w = e.ravel()
+    if damping:
+        Vd = v.reshape(nf, 3)
+        omega = mv3(S_inv, axial(mat3(R, tmul(Vd, H), True)))
+        Om = skew(omega)
+        cr = np.zeros(3)
+        for f in range(nf):
+            for j in range(3):
+                x = (Vd[f, 0] * R[0, j] + Vd[f, 1] * R[1, j] + Vd[f, 2] * R[2, j]
+                     + local[f, 0] * Om[0, j] + local[f, 1] * Om[1, j] + local[f, 2] * Om[2, j])
+                rate[f, j] = x
+                cr[j] += g1m[f] * x
+        w = np.empty(3 * nf)
+        for f in range(nf):
+            for j in range(3):
+                rate[f, j] -= k1[f] * cr[j]
+                w[3 * f + j] = e[f, j] + beta * rate[f, j]
+    z = KP @ w
+    total = z.reshape(nf, 3)
+    if damping and alpha != 0.0:
+        total = total + alpha * gram_product(mass_projected, rate)
+    b = mv3(S_inv, axial(tmul(local, total)))
+    gradient = np.empty(3 * nf)
+    for f in range(nf):          # P_f − h_fᵀ [b]× = P_f − h_f × b
+        h0, h1, h2 = H[f, 0], H[f, 1], H[f, 2]
+        gradient[3 * f] = total[f, 0] - (h1 * b[2] - h2 * b[1])
+        gradient[3 * f + 1] = total[f, 1] - (h2 * b[0] - h0 * b[2])
+        gradient[3 * f + 2] = total[f, 2] - (h0 * b[1] - h1 * b[0])
+    return ok, R, U, S_inv, gradient, local, e, rate, z
+
+
+@njit(**JIT)
+def corotated_parts(e, rate, z, KP, mass_projected, damping, alpha, beta):
+    """From :func:`_corotated`: (V = ½ eᵀ Kr e, ėᵀ D₀ ė, P = mat((Πᵀ ⊗ I3) Kr e)); with
+    damping one product more, (Πᵀ ⊗ I3) Kr ė."""
+    nf = e.shape[0]
+    if not damping:
+        return 0.5 * (e.ravel() @ z), 0.0, z.reshape(nf, 3)
+    pd = alpha * gram_product(mass_projected, rate) if alpha != 0.0 else np.zeros((nf, 3))
+    p = z
+    if beta != 0.0:
+        kr = KP @ rate.ravel()
+        p = z - beta * kr
+        pd += beta * kr.reshape(nf, 3)
+    return 0.5 * (e.ravel() @ p), rate.ravel() @ pd.ravel(), p.reshape(nf, 3)
+
+
+@njit(**JIT)
+def elastic_frame(local, P, H, S_inv):
+    """(b, P − H [b]×) of the elastic forces P alone (corotated.frame_force)."""
+    b = mv3(S_inv, axial(tmul(local, P)))
+    return b, P - mul(H, skew(b))
+
+
+@njit(**JIT)
+def rotor_state(p, v, plane_map, p0, K, turn, weights, pairs, damping, D):
+    """rotor.rotor_state, with rotor.RotorDamping.local_force: (ok, phase, Tᵀ(∂V/∂p + f_d),
+    V, ėᵀ D₀ ė, f, c, s, β, ρ)."""
+    N = plane_map @ p
+    X, Y = N[0] + N[3], N[2] - N[1]
+    rho = math.hypot(X, Y)
+    n = p.shape[0]
+    if not N[0] * N[3] - N[1] * N[2] > COLLAPSED * rho * rho:
+        z = np.zeros(n)
+        return False, np.array([1.0, 0.0]), z, 0.0, 0.0, z, z, z, 0.0, 1.0
+    phase = np.array([X / rho, Y / rho])
+    local = _turn_pairs(p, pairs, phase[0], -phase[1])
+    e = local - p0
+    f = K @ e
+    c = turn @ local
+    beta = f @ c
+    slope = weights[1] / rho
+    gradient = f - beta * slope
+    dissipation = 0.0
+    if damping:
+        x = _turn_pairs(v, pairs, phase[0], -phase[1])
+        rate = x - c * (slope @ x)
+        y = D @ rate
+        gradient = gradient + (y - slope * (c @ y))
+        dissipation = rate @ y
+    return True, phase, gradient, 0.5 * (e @ f), dissipation, f, c, slope, beta, rho
+
+
+@njit(**JIT)
+def svk_state(q, H, k1, g1m, reference, A, rows, cols, scale):
+    """svk.SVKLaw.state and svk.svk_state: (ok, R, Tᵀ ∂V/∂q, V)."""
+    nf = H.shape[0]
+    Q = q.reshape(nf, 3)
+    Qc = remove(Q, k1, g1m)
+    Pm = Qc @ Qc.T - reference
+    count = rows.shape[0]
+    delta = np.empty(count)
+    for k in range(count):
+        delta[k] = 0.5 * (Pm[rows[k], cols[k]] + Pm[cols[k], rows[k]]) * scale[k]
+    y = A @ delta
+    S = np.zeros((nf, nf))
+    for k in range(count):
+        value = y[k] / scale[k]
+        S[rows[k], cols[k]] = value
+        S[cols[k], rows[k]] = value
+    force = remove(2.0 * (S @ Qc), g1m, k1)
+    R, _, _, ok = polar(tmul(Q, H))
+    return ok, R, mul(force, R).ravel(), 0.5 * (delta @ y)

@@ -1,0 +1,182 @@
+"""The compiled step's Newton system (``kkt.BorderedKKT``): the change of frame
+(``corotated.local_frame_update``, ``rotor.rotor_frame_update``), its relinearisation, and the
+bordered solve with the constraint rows applied through their units. Numba."""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from gcms_fenicsx.dynamics.stepping.compiled.algebra import (JIT, axial, gram_product, lu_factor,
+                                                             lu_solve, mat3, mul, mv3, remove,
+                                                             skew, tmul, xe)
+from gcms_fenicsx.dynamics.stepping.compiled.laws import back
+from gcms_fenicsx.dynamics.stepping.kernel_data import ROTOR
+
+@njit(**JIT)
+def apply_A(X, K, M, gram, rotor, gamma_p, alpha, beta):
+    """damping.RayleighDamping.frame_operator: A X = γ'α Mr X + (1 + γ'β) Kr X."""
+    out = (1.0 + gamma_p * beta) * gram_product(K, X)
+    if alpha != 0.0:
+        if rotor:
+            out += (gamma_p * alpha) * gram_product(M, X)
+        else:
+            n, k = X.shape
+            MX = gram_product(gram, np.ascontiguousarray(X).reshape(gram.shape[0], 3 * k))
+            out += (gamma_p * alpha) * MX.reshape(n, k)
+    return out
+
+
+@njit(**JIT)
+def field_frame_update(U, S_inv, local, P, b, gradient, H, k1, g1m, K, gram, gamma_p,
+                        alpha, beta):
+    """corotated.local_frame_update: the first three columns of X_loc, B + U₃, and Y_loc of the
+    rank-9 change-of-frame term. X_loc's other six columns, Wᵀ = Hₓ S⁻¹ᵀ and U₂, are constant
+    up to S⁻¹, so S₀⁻¹ times them is formed once (``StepData.frame_solves``; :func:`_relinearise`)."""
+    nf = H.shape[0]
+    n = 3 * nf
+    W_T = np.empty((n, 3))                       # row (f, a): S⁻¹ (h_f × e_a)
+    C_hat = np.empty((n, 3))                     # [(f, j), k] = ((Π Q_loc)_f × e_k)_j
+    U3 = np.empty((n, 3))                        # [(f, j), k] = −(gradient_f × e_k)_j
+    PL = remove(local, k1, g1m)
+    for f in range(nf):
+        for a in range(3):
+            h0, h1, h2 = xe(H[f], a, 0), xe(H[f], a, 1), xe(H[f], a, 2)
+            for j in range(3):
+                W_T[3 * f + a, j] = S_inv[j, 0] * h0 + S_inv[j, 1] * h1 + S_inv[j, 2] * h2
+        for k in range(3):
+            for j in range(3):
+                C_hat[3 * f + j, k] = xe(PL[f], k, j)
+                U3[3 * f + j, k] = -xe(gradient[f], k, j)
+    AC = apply_A(C_hat, K, K, gram, False, gamma_p, alpha, beta)
+    AC9 = AC.reshape(nf, 9)
+    B = (AC9 - np.outer(g1m, k1 @ AC9)).reshape(n, 3)    # Πᵀ A Ĉ
+    Yl = tmul(local, P)
+    X3 = skew(mv3(U, b))                       # [U b]×, plus M_Yᵀ: [k, c] = w([e_k]× Y)_c
+    E = np.eye(3)
+    for k in range(3):
+        X3[k] += axial(mat3(skew(E[k]), Yl))
+    hb = H @ b
+    db = np.empty((3, n))                        # column (f, k): db
+    for f in range(nf):
+        for k in range(3):
+            om = W_T[3 * f + k]
+            for j in range(3):
+                oj = om[0] * X3[0, j] + om[1] * X3[1, j] + om[2] * X3[2, j]
+                db[j, 3 * f + k] = (xe(P[f], k, j) - oj - H[f, k] * b[j]
+                                    + (hb[f] if j == k else 0.0))
+    Y = np.empty((9, n))
+    Y[0:3] = W_T.T
+    Y[3:6] = B.T + (C_hat.T @ AC) @ W_T.T
+    Y[6:9] = S_inv @ db
+    return B + U3, Y
+
+
+@njit(**JIT)
+def rotor_frame_update(f, c, slope, beta, rho, turn, weights, Ac):
+    """rotor.rotor_frame_update: (X_loc, Y_loc) of the rank-2 change of frame, A c given."""
+    a = Ac - turn @ f - (beta / rho) * weights[0]
+    kappa = c @ Ac + f @ (turn @ c)
+    n = f.shape[0]
+    X = np.empty((n, 2))
+    X[:, 0], X[:, 1] = a, slope
+    Y = np.empty((2, n))
+    Y[0], Y[1] = -slope, kappa * slope - a
+    return X, Y
+
+
+@njit(**JIT)
+def relinearise(d, X, Y, S_inv):
+    """BorderedKKT._relinearise: (S₀⁻¹ X_loc)ᵀ and Y_loc into the exact system's last rows; X
+    is X_loc (rotor) or its first three columns (GCMS coordinates, with S⁻¹ for the next
+    three). Then the capacitance blocks they change (:func:`_frame_capacitance`)."""
+    m = d.m
+    BT = d.border_exact[m:]
+    XT = np.ascontiguousarray(X.T)
+    for k in range(XT.shape[0]):
+        BT[k] = d.s0_inverse @ XT[k]
+    if d.law != ROTOR:
+        SH, SU = d.frame_solves[:3], d.frame_solves[3:]
+        for j in range(3):
+            BT[3 + j] = S_inv[j, 0] * SH[0] + S_inv[j, 1] * SH[1] + S_inv[j, 2] * SH[2]
+            BT[6 + j] = SU[j]
+    d.rows_exact[m:] = Y
+    frame_capacitance(d)
+
+
+@njit(**JIT)
+def frame_capacitance(d):
+    """The change-of-frame rows G_x, S₀⁻¹-solved B_x (the NumPy step's kept rows) copied
+    beside the constraint units, and their blocks of W = [c(e); G_x] [S₀⁻¹ c(e)ᵀ, B_x]
+    (``StepData.unit_capacitance``): products of length n, once per relinearisation."""
+    m, u = d.m, 3 * d.m
+    d.rows_all[u:] = d.rows_exact[m:]
+    d.solves_all[u:] = d.border_exact[m:]
+    W = d.unit_capacitance
+    W[u:, :] = d.rows_all[u:] @ d.solves_all.T
+    if u:
+        W[:u, u:] = d.rows_all[:u] @ d.solves_all[u:].T
+
+
+@njit(**JIT)
+def prepare(d, exact, U, world):
+    """BorderedKKT.prepare (the rank-9 rows already relinearised where asked), with the
+    constraint rows never formed: in the frame, row i is G_i = Σ_l a_il c_i(e_l) and its
+    solve B_iᵀ = Σ_l a_il S₀⁻¹ c_i(e_l)ᵀ (a_i = Rᵀ u_i, either kind of coordinates), so the
+    capacitance matrix G B + [0 0; 0 I] follows from W (:func:`_frame_capacitance`) in
+    O(m²): (a, its LU factors with pivots)."""
+    m = d.m
+    u = 3 * m
+    a = mul(U, world)
+    pad = d.pad_exact if exact else d.pad_plain
+    W = d.unit_capacitance
+    cap = pad.copy()
+    for i in range(m):
+        for j in range(m):
+            x = 0.0
+            for l in range(3):
+                for l2 in range(3):
+                    x += a[i, l] * a[j, l2] * W[3 * i + l, 3 * j + l2]
+            cap[i, j] -= x
+    if exact:
+        for i in range(m):
+            for r in range(d.rank):
+                x = 0.0
+                y = 0.0
+                for l in range(3):
+                    x += a[i, l] * W[3 * i + l, u + r]
+                    y += a[i, l] * W[u + r, 3 * i + l]
+                cap[i, m + r] -= x
+                cap[m + r, i] -= y
+        for r in range(d.rank):
+            for s in range(d.rank):
+                cap[m + r, m + s] -= W[u + r, u + s]
+    piv = lu_factor(cap)
+    return a, cap, piv
+
+
+@njit(**JIT)
+def solve(d, bordered, exact, a, lu, piv, r, g, R, phase):
+    """BorderedKKT.solve: (Δq, Δλ) for the residuals r (frame R) and g, the bordered rows
+    applied through the units (:func:`_prepare`): two products with 3m (+ rank) rows."""
+    rotor, pairs, m = d.law == ROTOR, d.pairs, d.m
+    z = d.s0_inverse @ r
+    if not bordered:
+        return back(rotor, pairs, z, R, phase), np.zeros(0)
+    u = 3 * m
+    rows = u + (d.rank if exact else 0)
+    k = lu.shape[0]
+    Gz = d.rows_all[:rows] @ z
+    b = np.empty(k)
+    for i in range(m):
+        b[i] = a[i, 0] * Gz[3 * i] + a[i, 1] * Gz[3 * i + 1] + a[i, 2] * Gz[3 * i + 2] - g[i]
+    for r_ in range(k - m):
+        b[m + r_] = Gz[u + r_]
+    sol = lu_solve(lu, piv, b)
+    w = np.empty(rows)
+    for i in range(m):
+        for l in range(3):
+            w[3 * i + l] = sol[i] * a[i, l]
+    for r_ in range(k - m):
+        w[u + r_] = sol[m + r_]
+    z += w @ d.solves_all[:rows]
+    return back(rotor, pairs, z, R, phase), sol[:m].copy()

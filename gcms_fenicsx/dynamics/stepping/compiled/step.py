@@ -1,0 +1,302 @@
+"""The compiled generalized-α step (``integrator.GeneralizedAlpha.step``) and a stretch of them
+with the recorder's accounts (``recorder.Recorder.step``); the time functions of drives and
+loads. Numba. The package's docstring says what differs from the NumPy step and when a step
+is handed over to it."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from gcms_fenicsx.dynamics.stepping.compiled.algebra import JIT, gram_product
+from gcms_fenicsx.dynamics.stepping.compiled.laws import (corotated_parts, corotated_state,
+                                                          elastic_frame, residual, rotor_state,
+                                                          svk_state)
+from gcms_fenicsx.dynamics.stepping.compiled.newton import (apply_A, field_frame_update,
+                                                            frame_capacitance, prepare,
+                                                            relinearise, rotor_frame_update,
+                                                            solve)
+from gcms_fenicsx.dynamics.stepping.kernel_data import COROTATED, ROTOR, SVK
+
+#: Status of a stretch: it reached its last step, the recorder's block is full, or the next
+#: step is handed over to the NumPy step.
+DONE, BLOCK_FULL, HANDED_OVER = 0, 1, 2
+
+
+@njit(**JIT)
+def _drive_angle(W, T, cycloidal, t):
+    if t >= T:
+        return W * (t - 0.5 * T)
+    if cycloidal:
+        c = 2.0 * math.pi / T
+        return W / T * (0.5 * t * t + (math.cos(c * t) - 1.0) / (c * c))
+    c = math.pi / T
+    return 0.5 * W * (t - math.sin(c * t) / c)
+
+
+@njit(**JIT)
+def _directions_at(t, directions, drive_rows, drive_vectors, drive_params):
+    """u_i(t): the rows a drive turns turned by its angle (Constraints.directions_at)."""
+    if drive_rows.shape[0] == 0:
+        return directions
+    U = directions.copy()
+    for j in range(drive_rows.shape[0]):
+        theta = _drive_angle(drive_params[j, 0], drive_params[j, 1], drive_params[j, 2] == 1.0,
+                             t)
+        c, s = math.cos(theta), math.sin(theta)
+        i = drive_rows[j]
+        for l in range(3):
+            U[i, l] = (c * drive_vectors[j, 0, l] + s * drive_vectors[j, 1, l]
+                       + (1.0 - c) * drive_vectors[j, 2, l])
+    return U
+
+
+@njit(**JIT)
+def _row_values(U, units_x):
+    """C x = [u_i · (c_i(e) x)]_i from the units' products ``units_x`` (3m,)."""
+    m = U.shape[0]
+    out = np.empty(m)
+    for i in range(m):
+        out[i] = U[i, 0] * units_x[3 * i] + U[i, 1] * units_x[3 * i + 1] + U[i, 2] * units_x[3 * i + 2]
+    return out
+
+
+@njit(**JIT)
+def _rows_transposed(U, lam, units):
+    """Cᵀ λ = Σ_i λ_i Σ_l u_il c_i(e_l)."""
+    m = U.shape[0]
+    w = np.empty(3 * m)
+    for i in range(m):
+        for l in range(3):
+            w[3 * i + l] = lam[i] * U[i, l]
+    return w @ units
+
+
+@njit(**JIT)
+def _external_force(t, gravity, load_vectors, load_params):
+    """ExternalForces.__call__: f_g + Σ_j s_j(t) b_j."""
+    L = load_params.shape[0]
+    if L == 0:
+        return gravity
+    f = np.empty(L)
+    for j in range(L):
+        kind, T = load_params[j, 0], load_params[j, 1]
+        freq, phase = load_params[j, 2], load_params[j, 3]
+        if kind == 1.0:
+            f[j] = min(t / T, 1.0)
+        elif kind == 2.0:
+            wave = math.sin(2.0 * math.pi * freq * t + phase)
+            f[j] = wave if t >= T else 0.5 * (1.0 - math.cos(math.pi * t / T)) * wave
+        else:
+            f[j] = 1.0
+    return gravity + f @ load_vectors
+
+
+@njit(**JIT)
+def _mass_product(rotor, x, mass, gram):
+    """Mr x: G ⊗ I3 on GCMS coordinates, Mp on rotor coordinates."""
+    if rotor:
+        return mass @ x
+    return gram_product(gram, x.reshape(gram.shape[0], 3)).ravel()
+
+
+@njit(**JIT)
+def _law_state(d, q, v):
+    """The running law at (q, q̇): (ok, R, phase, Tᵀ(∂V/∂q + f_d), V, ėᵀ D₀ ė, then what its
+    change of frame needs: co-rotated (U, S⁻¹, Q_loc, e, ė, z), rotor (f, c, s, β, ρ)); the
+    other laws' entries empty. The co-rotated V and ėᵀ D₀ ė are 0 here (``corotated_parts``)."""
+    none3, none2, none1 = np.empty((0, 3)), np.empty((0, 0)), np.empty(0)
+    still = np.array([1.0, 0.0])
+    if d.law == COROTATED:
+        ok, R, Us, S_inv, gradient, local, e, rate, z = corotated_state(
+            q, v, d.affine, d.unit, d.unit_dual, d.q0_projected, d.projected,
+            d.mass_projected, d.damping, d.damping_alpha, d.damping_beta)
+        return (ok, R, still, gradient, 0.0, 0.0, Us, S_inv, local, e, rate, z,
+                none1, none1, none1, 0.0, 1.0)
+    if d.law == ROTOR:
+        ok, phase, gradient, energy, dissipation, f, c, slope, beta, rho = rotor_state(
+            q, v, d.plane_map, d.q0, d.stiffness, d.turn, d.weights, d.pairs, d.damping,
+            d.rotor_damping)
+        return (ok, np.eye(3), phase, gradient, energy, dissipation, none2, none2, none3,
+                none3, none3, none1, f, c, slope, beta, rho)
+    ok, R, gradient, energy = svk_state(q, d.affine, d.unit, d.unit_dual, d.svk_reference,
+                                        d.svk_quadratic, d.svk_rows, d.svk_cols, d.svk_scale)
+    return (ok, R, still, gradient, energy, 0.0, none2, none2, none3, none3, none3, none1,
+            none1, none1, none1, 0.0, 1.0)
+
+
+@njit(**JIT)
+def _relinearised(d, state):
+    """BorderedKKT._relinearise at a law state of :func:`_law_state`: the change-of-frame rows
+    of the exact Newton matrix (``newton.relinearise``)."""
+    _, _, _, _, _, _, Us, S_inv, local, e, rate, z, f, c, slope, beta, rho = state
+    if d.law == ROTOR:
+        Ac = apply_A(c.reshape(d.n, 1), d.stiffness, d.mass, d.gram, True, d.gamma_p,
+                     d.damping_alpha, d.damping_beta).ravel()
+        X, Y = rotor_frame_update(f, c, slope, beta, rho, d.turn, d.weights, Ac)
+    else:
+        P = corotated_parts(e, rate, z, d.projected, d.mass_projected, d.damping,
+                            d.damping_alpha, d.damping_beta)[2]
+        b, gradient = elastic_frame(local, P, d.affine, S_inv)
+        X, Y = field_frame_update(Us, S_inv, local, P, b, gradient, d.affine, d.unit,
+                                  d.unit_dual, d.stiffness, d.gram, d.gamma_p,
+                                  d.damping_alpha, d.damping_beta)
+    relinearise(d, X, Y, S_inv)
+
+
+@njit(**JIT)
+def _predicted(d, Z):
+    """Z ← P Z (``alpha.step_matrices``)."""
+    Z0 = Z.copy()
+    P = d.predictor
+    for i in range(4):
+        for j in range(Z.shape[1]):
+            Z[i, j] = P[i, 0] * Z0[0, j] + P[i, 1] * Z0[1, j] + P[i, 2] * Z0[2, j] + P[i, 3] * Z0[3, j]
+
+
+@njit(**JIT)
+def _step(d, Z, lam, t1, policy, energies, mass_acc):
+    """One step from Z (4 × n), λ to t1, in place (integrator.GeneralizedAlpha.step). Returns
+    (converged, iterations, V, ėᵀ D₀ ė, f_ext, u(t1)), V and ėᵀ D₀ ė only if ``energies``;
+    ``mass_acc`` is Mr q̈ of Z, kept so. Not converged: Z, λ, Mr q̈, the policy
+    ([frame_terms, kept_steps, kept]) and the kept rank-9 rows as they were, for the NumPy
+    step to take the step."""
+    n, m = d.n, d.m
+    rotor = d.law == ROTOR
+    start = (Z.copy(), lam.copy(), mass_acc.copy(), policy.copy())
+    kept_rows = np.empty((0, n))
+    _predicted(d, Z)
+    U = _directions_at(t1, d.directions, d.drive_rows, d.drive_vectors, d.drive_params)
+    units = d.rows_all[:3 * m]
+    f_ext = _external_force(t1, d.gravity, d.load_vectors, d.load_params)
+    corotated = d.law != SVK
+    relin = d.exact_mode or policy[1] >= d.reuse_steps       # JacobianPolicy.start_step
+    policy[1] = 0 if relin else policy[1] + 1
+    exact = d.exact_mode or policy[0] == 1
+    every = bordered = converged = False
+    g = np.zeros(m)
+    previous = delta = math.inf
+    R_lin, phase_lin = np.eye(3), np.array([1.0, 0.0])
+    a, lu, piv = np.zeros((m, 3)), np.zeros((0, 0)), np.zeros(0, dtype=np.int64)
+    state = _law_state(d, Z[0], Z[1])
+    iteration = 0
+    while iteration < d.max_iterations:
+        iteration += 1
+        if iteration > 1:
+            state = _law_state(d, Z[0], Z[1])
+        ok, R, phase, gradient = state[0], state[1], state[2], state[3]
+        if not ok:
+            break
+        y = mass_acc - f_ext
+        if m:
+            y += _rows_transposed(U, lam, units)
+            g = _row_values(U, units @ Z[0]) - d.targets
+        prepared = iteration == 1 or every
+        upgrade = False
+        while True:           # once, and again when a slow iteration upgrades the matrix
+            if prepared:
+                R_lin, phase_lin = R, phase
+                if exact and (relin or every or policy[2] == 0):
+                    if kept_rows.shape[0] == 0:
+                        kept_rows = np.concatenate((d.border_exact[m:], d.rows_exact[m:]))
+                    _relinearised(d, state)
+                    policy[2] = 1
+                bordered = m > 0 or exact
+                if bordered:
+                    P = d.projectors
+                    world = P[0] + phase[0] * P[1] + phase[1] * P[2] if rotor else R
+                    a, lu, piv = prepare(d, exact, U, world)
+            r = residual(rotor, d.pairs, y, gradient, R, phase, prepared, R_lin, phase_lin)
+            dq, dlam = solve(d, bordered, exact, a, lu, piv, r, g, R_lin, phase_lin)
+            mass_dq = _mass_product(rotor, dq, d.mass, d.gram)
+            delta = math.sqrt(abs(dq @ mass_dq) / d.total_mass)
+            if upgrade or every or not delta > d.upgrade_rate * previous or not corotated:
+                break
+            policy[0], policy[1] = 1, 0                  # JacobianPolicy.upgrade
+            every = exact = prepared = upgrade = True
+        if (not corotated and not every and delta > d.upgrade_rate * previous
+                and delta > d.tangent_rate * previous) or not delta < math.inf:
+            break                          # redone with the SVK tangent, or failed
+        for row in range(4):
+            Z[row] += d.update[row] * dq
+        mass_acc += d.update[2] * mass_dq
+        lam += dlam
+        tol = d.tolerance
+        if delta <= tol or (delta * delta <= tol * (previous - delta)
+                            and tol * (previous - delta) < math.inf):
+            converged = True
+            break
+        previous = delta
+    energy, dissipation = state[4], state[5]
+    if converged and energies and d.law == COROTATED:
+        energy, dissipation, _ = corotated_parts(state[9], state[10], state[11], d.projected,
+                                                 d.mass_projected, d.damping, d.damping_alpha,
+                                                 d.damping_beta)
+    if not converged:
+        _restore(d, Z, lam, mass_acc, policy, start, kept_rows)
+    return converged, iteration, energy, dissipation, f_ext, U
+
+
+@njit(**JIT)
+def _restore(d, Z, lam, mass_acc, policy, start, kept_rows):
+    """A step handed over: everything it changed as it was before it."""
+    Z[:, :] = start[0]
+    lam[:] = start[1]
+    mass_acc[:] = start[2]
+    policy[:] = start[3]
+    if kept_rows.shape[0]:
+        k = d.rank
+        d.border_exact[d.m:] = kept_rows[:k]
+        d.rows_exact[d.m:] = kept_rows[k:]
+        frame_capacitance(d)
+
+
+@njit(**JIT)
+def run_stretch(d, rec, Z, lam, t, index, stop, h, policy, last):
+    """Steps index + 1 … stop from (t, Z, λ) at step ``index``, accounting for and recording
+    each (recorder.Recorder.step / record) into ``rec``. Returns (status, steps taken, the
+    time reached); ``last`` (3,) gets the last step's Newton iterations and elastic energy, and
+    adds the stretch's iterations to its third entry."""
+    counters = rec.counters
+    taken = 0
+    if policy[2] and d.rank:
+        frame_capacitance(d)        # the kept rows may have been set by the NumPy step
+    # Mr q̈, kept up to date by every correction's Mr Δq (the predictor keeps q̈)
+    mass_acc = _mass_product(d.law == ROTOR, Z[2].copy(), d.mass, d.gram)
+    while index < stop:
+        t1 = t + h
+        converged, iterations, energy, dissipation, f_ext, U = _step(d, Z, lam, t1, policy,
+                                                                     rec.energy, mass_acc)
+        if not converged:
+            return HANDED_OVER, taken, t
+        t, index = t1, index + 1
+        taken += 1
+        last[0], last[1] = iterations, energy
+        last[2] += iterations
+        v = Z[1]
+        if rec.energy:
+            load = (f_ext - d.gravity) @ v if rec.loads else 0.0
+            constraint = (-(lam @ _row_values(U, d.rows_all[:3 * d.m] @ v)) if d.m
+                          else 0.0)
+            if counters[1]:
+                hh = rec.half_step
+                rec.work[0] += hh * (rec.power[0] + load)
+                rec.work[1] += hh * (rec.power[1] + constraint)
+                rec.work[2] += hh * (rec.power[2] + dissipation)
+            rec.power[0], rec.power[1], rec.power[2] = load, constraint, dissipation
+            counters[1] = 1
+        if index == rec.last_step or index % rec.every == 0:
+            k = counters[0]
+            rec.qv[k, 0] = Z[0]
+            rec.qv[k, 1] = Z[1]
+            if rec.multipliers.shape[1]:
+                rec.multipliers[k] = lam
+            row = rec.scalars[k]
+            row[0], row[1] = t, iterations
+            row[2] = energy if rec.energy else 0.0
+            row[3], row[4], row[5] = rec.work[0], rec.work[1], rec.work[2]
+            counters[0] = k + 1
+            if k + 1 == rec.qv.shape[0]:
+                return BLOCK_FULL, taken, t
+    return DONE, taken, t

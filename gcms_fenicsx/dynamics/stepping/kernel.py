@@ -1,0 +1,145 @@
+"""Which step a run takes — the compiled one (``compiled``, Numba) or the NumPy one
+(``integrator``, the reference) — and the compiled one's driver (docs/design.md §6.4).
+
+``[scene.solver] kernel``: "auto" (default) compiles where Numba imports and the stepper is
+one the kernel runs (``kernel_data.unsupported``), else steps in NumPy; "numba" insists (a
+SceneError says why it cannot); "numpy" never compiles. The environment variable
+``GCMS_KERNEL`` (auto, numba, numpy) overrides the scene's choice for a whole session.
+
+Numba compiles the kernel once per machine: it is cached on disk beside the package
+(``__pycache__``; where that is not writable, Numba's user cache: ``NUMBA_CACHE_DIR``, else
+``$XDG_CACHE_HOME/numba``), and the run says whether it compiled and how long it took.
+"""
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from gcms_fenicsx.config.scene import KERNELS, SceneError
+from gcms_fenicsx.dynamics.stepping.kernel_data import StepData, step_data, unsupported
+from gcms_fenicsx.dynamics.stepping.state import State, StepInfo
+from gcms_fenicsx.runtime.progress import Progress
+
+#: A stretch of compiled steps is at most this long, so a run reports progress and answers
+#: an interrupt between stretches (a few ms to a few hundred ms of stepping).
+STRETCH_STEPS = 2000
+KERNEL_VARIABLE = "GCMS_KERNEL"
+
+
+class KernelElastic(NamedTuple):
+    """What the recorder reads of a compiled step's elastic state."""
+
+    energy: float
+
+
+@dataclass(frozen=True)
+class KernelChoice:
+    """The step a run takes: "numba" or "numpy", why, and the compile (or cache load) time."""
+
+    name: str
+    reason: str = ""
+    compile_s: float | None = None
+    cached: bool | None = None
+
+    def summary(self) -> dict:
+        """summary.json's ``kernel`` block."""
+        return {"name": self.name, "reason": self.reason or None,
+                "compile_s": self.compile_s, "loaded_from_cache": self.cached}
+
+
+def requested(setting: str) -> str:
+    """The scene's ``kernel`` unless ``GCMS_KERNEL`` overrides it (checked like the key)."""
+    value = os.environ.get(KERNEL_VARIABLE, "").strip()
+    if not value:
+        return setting
+    if value not in KERNELS:
+        raise SceneError(f"{KERNEL_VARIABLE} = {value!r} must be one of "
+                         + ", ".join(repr(k) for k in KERNELS))
+    return value
+
+
+def numba_missing() -> str | None:
+    """Why Numba cannot compile the kernel here (None: it can): Numba itself, and SciPy, whose
+    BLAS Numba's matrix products call."""
+    try:
+        import numba  # noqa: F401
+    except ImportError as exc:
+        return f"Numba is not installed ({exc}); scripts/setup.sh installs python3-numba"
+    try:
+        import scipy.linalg.cython_blas  # noqa: F401
+    except ImportError as exc:
+        return (f"Numba's matrix products need SciPy's BLAS, which is not importable ({exc}); "
+                "scripts/setup.sh installs python3-scipy")
+    return None
+
+
+class CompiledStepper:
+    """Stretches of compiled steps of one run, handing a step the kernel leaves to the NumPy
+    step of the same stepper (module docstring of ``compiled``)."""
+
+    def __init__(self, integrator: Any, data: StepData) -> None:
+        from gcms_fenicsx.dynamics.stepping.compiled import step as compiled
+        self.integrator, self.data, self.compiled = integrator, data, compiled
+        self.policy = np.zeros(3, dtype=np.int64)
+        self.last = np.zeros(3)          # last step's iterations, its energy; iterations sum
+
+    def warm_up(self, recorder: Any, state: State) -> tuple[float, bool | None]:
+        """Compile the kernel (or load it from the cache) by a stretch of no steps: (seconds,
+        whether it came from the cache; None if this process had it already)."""
+        run = self.compiled.run_stretch
+        stats = run.stats
+        hits, misses = sum(stats.cache_hits.values()), sum(stats.cache_misses.values())
+        start = time.perf_counter()
+        run(self.data, recorder.raw, state.Z.copy(), state.lam.copy(), state.t, 0, 0,
+            self.integrator.h, self.policy, self.last)
+        seconds = time.perf_counter() - start
+        if sum(stats.cache_hits.values()) > hits:
+            return seconds, True
+        return seconds, (False if sum(stats.cache_misses.values()) > misses else None)
+
+    def stretch(self, state: State, index: int, stop: int, recorder: Any
+                ) -> tuple[int, int, State, StepInfo | None, int]:
+        """Steps index + 1 … stop (fewer if the block fills or a step is handed over):
+        (status, steps taken, the state reached, its step's info (None if no step), the
+        Newton iterations of those steps)."""
+        it = self.integrator
+        policy = self.policy
+        policy[:] = it.policy.frame_terms, it.policy.kept_steps, it.linear.kept
+        Z, lam = state.Z.copy(), state.lam.copy()
+        self.last[2] = 0.0
+        status, taken, t = self.compiled.run_stretch(self.data, recorder.raw, Z, lam, state.t,
+                                                     index, stop, it.h, policy, self.last)
+        it.policy.frame_terms, it.policy.kept_steps = bool(policy[0]), int(policy[1])
+        it.linear.kept = bool(policy[2])
+        if not taken:
+            return status, 0, state, None, 0
+        info = StepInfo(KernelElastic(float(self.last[1])), 0.0, it.constraints.directions,
+                        int(self.last[0]), it.forces.gravity_force)
+        return status, taken, State(t, Z, lam), info, int(self.last[2])
+
+    @property
+    def handed_over(self) -> int:
+        return self.compiled.HANDED_OVER
+
+    @property
+    def block_full(self) -> int:
+        return self.compiled.BLOCK_FULL
+
+
+def choose_kernel(integrator: Any, setting: str, progress: Progress
+                  ) -> tuple[KernelChoice, CompiledStepper | None]:
+    """The step a run takes (module docstring), and the compiled stepper if it is Numba's."""
+    wanted = requested(setting)
+    if wanted == "numpy":
+        return KernelChoice("numpy", "asked for"), None
+    why = numba_missing() or unsupported(integrator)
+    if why is not None:
+        if wanted == "numba":
+            raise SceneError(f'[scene.solver] kernel = "numba" cannot run this scene: {why}; '
+                             'kernel = "numpy" or "auto" steps it in NumPy')
+        return KernelChoice("numpy", why), None
+    return KernelChoice("numba"), CompiledStepper(integrator, step_data(integrator))
