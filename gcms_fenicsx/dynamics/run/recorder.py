@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import cached_property
 from typing import NamedTuple
 
 import numpy as np
@@ -254,19 +255,23 @@ class Recorder:
         if not k:
             return
         body, out = self.body, self.out
-        qv = raw.qv[:k] if self.lift is None else raw.qv[:k].dot(self.lift.T)
-        Q = qv[:, 0].reshape(k, -1, 3)
-        V = qv[:, 1].reshape(k, -1, 3)
         scalars = raw.scalars[:k]
         block = {"time": scalars[:, 0].copy(),
                  "newton_iterations": scalars[:, 1].astype("<i4")}
-        for g in out.groups:
-            h = body.groups[g].position
-            block[f"groups/{g}/position"] = np.matmul(h, Q)
-            block[f"groups/{g}/velocity"] = np.matmul(h, V)
-        kinetic, block["momentum/linear"], block["momentum/angular"] = body.momenta(Q, V)
+        if self.lift is None:
+            qv = raw.qv[:k]
+            Q = qv[:, 0].reshape(k, -1, 3)
+            V = qv[:, 1].reshape(k, -1, 3)
+            for g in out.groups:
+                h = body.groups[g].position
+                block[f"groups/{g}/position"] = np.matmul(h, Q)
+                block[f"groups/{g}/velocity"] = np.matmul(h, V)
+            kinetic, block["momentum/linear"], block["momentum/angular"] = body.momenta(Q, V)
+        else:
+            kinetic = self._lifted_series(block, raw.qv[:k, 0], raw.qv[:k, 1])
         block[MULTIPLIERS] = raw.multipliers[:k].copy()
         if out.coordinates:
+            qv = raw.qv[:k] if self.lift is None else raw.qv[:k].dot(self.lift.T)
             block["coordinates/q"], block["coordinates/v"] = qv[:, 0], qv[:, 1]
         if raw.energy:
             elastic, w = scalars[:, 2].copy(), scalars[:, 3:].copy()
@@ -283,3 +288,32 @@ class Recorder:
         self.extremes.update(block)
         self.sink.append(block)
         raw.counters[0] = 0
+
+    def _lifted_series(self, block: dict, p: np.ndarray, pd: np.ndarray) -> np.ndarray:
+        """The full basis's group positions and velocities and momenta of rows p, ṗ (k × np)
+        with q = B p, from matrices in p made once (:meth:`_lifted`): all are linear or
+        bilinear in (q, q̇), so they never need the k rows of q (``Body.momenta``: kinetic
+        ½ q̇ᵀ Mr q̇, linear Q̇ᵀ g1, angular Σ_f Q_f × (G Q̇)_f = [qᵀ (G ⊗ ε_a) q̇]_a). Returns the
+        kinetic energy."""
+        groups, Mp, linear, angular = self._lifted
+        for g, rows in groups.items():
+            block[f"groups/{g}/position"] = p.dot(rows.T)
+            block[f"groups/{g}/velocity"] = pd.dot(rows.T)
+        block["momentum/linear"] = pd.dot(linear.T)
+        block["momentum/angular"] = np.stack([(p.dot(form) * pd).sum(axis=1)
+                                              for form in angular], axis=1)
+        return 0.5 * (pd.dot(Mp) * pd).sum(axis=1)
+
+    @cached_property
+    def _lifted(self) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray]:
+        """(group rows (3 × np) by name, Mp, the linear momentum's rows (3 × np), the angular
+        momentum's forms (3, np, np)) for q = B p (:meth:`_lifted_series`)."""
+        body, B = self.body, self.lift
+        nf, columns = body.field_count, B.shape[1]
+        Bf = B.reshape(nf, 3, columns)                   # [f, l, j]: q_(f, l) = Σ_j B_(f, l) j p_j
+        GB = np.asarray(body.gram @ B.reshape(nf, 3 * columns)).reshape(nf, 3, columns)
+        groups = {g: np.tensordot(body.groups[g].position, Bf, axes=1) for g in self.out.groups}
+        angular = np.array([Bf[:, b].T.dot(GB[:, c]) - Bf[:, c].T.dot(GB[:, b])
+                            for b, c in ((1, 2), (2, 0), (0, 1))])   # (q × G q̇)_a, a = x, y, z
+        return (groups, B.T.dot(GB.reshape(3 * nf, columns)),
+                np.tensordot(body.field_mass, Bf, axes=1), angular)

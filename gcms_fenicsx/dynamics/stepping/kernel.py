@@ -1,20 +1,26 @@
 """Which step a run takes — the compiled one (``compiled``, Numba) or the NumPy one
-(``integrator``, the reference) — and the compiled one's driver (docs/design.md §6.4).
+(``integrator``, the reference) — and the compiled one's driver (docs/design.md §8.5).
 
 ``[scene.solver] kernel``: "auto" (default) compiles where Numba imports and the stepper is
 one the kernel runs (``kernel_data.unsupported``), else steps in NumPy; "numba" insists (a
 SceneError says why it cannot); "numpy" never compiles. The environment variable
 ``GCMS_KERNEL`` (auto, numba, numpy) overrides the scene's choice for a whole session.
 
-Numba compiles the kernel once per machine: it is cached on disk beside the package
-(``__pycache__``; where that is not writable, Numba's user cache: ``NUMBA_CACHE_DIR``, else
-``$XDG_CACHE_HOME/numba``), and the run says whether it compiled and how long it took.
+Numba compiles the kernel once per machine and caches it on disk (:func:`cache_folder`): beside
+the package, in ``compiled/__pycache__/kernel-<digest>``; under ``$NUMBA_CACHE_DIR`` if that is
+set; in ``$XDG_CACHE_HOME/gcms-fenicsx`` (else ``~/.cache``) where the package's folder is not
+writable. The run says whether it compiled and how long it took.
 """
 from __future__ import annotations
 
+import hashlib
 import os
+import shutil
 import time
 from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+from types import ModuleType
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -77,13 +83,59 @@ def numba_missing() -> str | None:
     return None
 
 
+#: The kernel's sources: the cache is keyed by their digest.
+KERNEL_SOURCES = Path(__file__).resolve().parent / "compiled"
+
+
+def cache_folder() -> Path:
+    """Where the compiled kernel is cached (module docstring), in a folder named by the digest
+    of the kernel's sources and of Numba's version: Numba keys a cached function by its own
+    file's time stamp only, so a helper changed in another of the kernel's modules would
+    otherwise leave a stale kernel in use."""
+    import numba
+
+    digest = hashlib.sha256(numba.__version__.encode())
+    for source in sorted(KERNEL_SOURCES.glob("*.py")):
+        digest.update(source.name.encode() + source.read_bytes())
+    name = f"kernel-{digest.hexdigest()[:16]}"
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return Path(os.environ["NUMBA_CACHE_DIR"]) / "gcms-fenicsx" / name
+    beside = KERNEL_SOURCES / "__pycache__"
+    try:
+        beside.mkdir(exist_ok=True)
+        if os.access(beside, os.W_OK):
+            return beside / name
+    except OSError:
+        pass
+    home = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    return home / "gcms-fenicsx" / name
+
+
+@lru_cache(maxsize=1)
+def kernel_module() -> ModuleType:
+    """``compiled.step``, its functions cached in :func:`cache_folder` (older kernels' folders
+    beside it removed)."""
+    import numba
+
+    folder = cache_folder()
+    for old in folder.parent.glob("kernel-*"):
+        if old != folder:
+            shutil.rmtree(old, ignore_errors=True)
+    previous = numba.config.CACHE_DIR
+    numba.config.CACHE_DIR = str(folder)
+    try:
+        from gcms_fenicsx.dynamics.stepping.compiled import step
+    finally:
+        numba.config.CACHE_DIR = previous
+    return step
+
+
 class CompiledStepper:
     """Stretches of compiled steps of one run, handing a step the kernel leaves to the NumPy
     step of the same stepper (module docstring of ``compiled``)."""
 
     def __init__(self, integrator: Any, data: StepData) -> None:
-        from gcms_fenicsx.dynamics.stepping.compiled import step as compiled
-        self.integrator, self.data, self.compiled = integrator, data, compiled
+        self.integrator, self.data, self.compiled = integrator, data, kernel_module()
         self.policy = np.zeros(3, dtype=np.int64)
         self.last = np.zeros(3)          # last step's iterations, its energy; iterations sum
 

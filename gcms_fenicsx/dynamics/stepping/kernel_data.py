@@ -1,6 +1,6 @@
 """The compiled step's data: a prepared ``GeneralizedAlpha`` laid out as plain arrays, and the
 small mutable state a stretch of compiled steps shares with the NumPy step (docs/design.md
-§6.4). NumPy only: this module decides what the compiled kernel (``compiled``) can run and
+§8.5). NumPy only: this module decides what the compiled kernel (``compiled``) can run and
 packs it; nothing here needs Numba.
 
 The compiled kernel runs the same step as ``integrator.GeneralizedAlpha.step`` (its
@@ -83,8 +83,9 @@ class StepData(NamedTuple):
     directions: np.ndarray     # u_i at θ = 0 (m, 3)
     targets: np.ndarray        # d (m,)
     frame_solves: np.ndarray   # (6, n): (S₀⁻¹ Hₓ)ᵀ and (S₀⁻¹ U₂)ᵀ (``compiled._relinearise``)
-    rows_all: np.ndarray       # (3m + rank, n): c_i(e_l) (row 3i + l), then G_x (per relinearisation)
-    solves_all: np.ndarray     # (3m + rank, n): S₀⁻¹ c_i(e_l)ᵀ, then B_x
+    vector_index: np.ndarray   # (m,) int: the row's vector k (``Constraints.index``)
+    rows_all: np.ndarray       # (3 nv + rank, n): c_k(e_l) (row 3k + l), then G_x (per relinearisation)
+    solves_all: np.ndarray     # (3 nv + rank, n): S₀⁻¹ c_k(e_l)ᵀ, then B_x
     unit_capacitance: np.ndarray  # W = rows_all solves_allᵀ, its rank blocks per relinearisation
     drive_rows: np.ndarray     # (d,) int
     drive_vectors: np.ndarray  # (d, 3, 3): u, e × u, e (e · u)
@@ -134,10 +135,10 @@ def step_data(integrator: Any) -> StepData:
     plain, exact = kept[False], kept[True]
     G = np.asarray(full.gram)
     s0_inverse = arr(linear.solve0.__self__)
-    units = arr(c.unit_rows()[c.index]) if m else np.zeros((0, 3, n))
-    solves = linear.YT if m else np.zeros((0, n))
+    units = (np.ascontiguousarray(c.unit_rows()).reshape(-1, n) if m else np.zeros((0, n)))
+    solves = (s0_inverse @ units.T).T
     rank = linear.kinds[True][0].shape[0] - m
-    rows_all = np.vstack((units.reshape(3 * m, n), np.zeros((rank, n))))
+    rows_all = np.vstack((units, np.zeros((rank, n))))
     solves_all = np.vstack((solves, np.zeros((rank, n))))
     return StepData(
         law=law, n=n, nf=nf, pairs=body.frame.pairs if rotor else 0,
@@ -171,7 +172,8 @@ def step_data(integrator: Any) -> StepData:
         directions=arr(c.directions, dtype=float).reshape(m, 3),
         targets=arr(c.targets, dtype=float),
         frame_solves=(frame_solves(full, s0_inverse) if not rotor else np.zeros((6, n))),
-        rows_all=rows_all, solves_all=solves_all,
+        vector_index=np.asarray(c.index, dtype=np.int64), rows_all=rows_all,
+        solves_all=solves_all,
         unit_capacitance=rows_all @ solves_all.T,
         drive_rows=np.array(drives, dtype=np.int64),
         drive_vectors=np.array([turning[i] for i in drives]).reshape(len(drives), 3, 3),

@@ -116,61 +116,68 @@ def remove(X, a, b):
 
 
 @njit(**JIT)
-def _inv3(A):
-    """(A⁻¹, det A) of a 3 × 3 matrix, by cofactors."""
-    C = np.empty((3, 3))
-    C[0, 0] = A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1]
-    C[0, 1] = A[0, 2] * A[2, 1] - A[0, 1] * A[2, 2]
-    C[0, 2] = A[0, 1] * A[1, 2] - A[0, 2] * A[1, 1]
-    C[1, 0] = A[1, 2] * A[2, 0] - A[1, 0] * A[2, 2]
-    C[1, 1] = A[0, 0] * A[2, 2] - A[0, 2] * A[2, 0]
-    C[1, 2] = A[0, 2] * A[1, 0] - A[0, 0] * A[1, 2]
-    C[2, 0] = A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]
-    C[2, 1] = A[0, 1] * A[2, 0] - A[0, 0] * A[2, 1]
-    C[2, 2] = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
-    det = A[0, 0] * C[0, 0] + A[0, 1] * C[1, 0] + A[0, 2] * C[2, 0]
-    return C / det, det
+def _inv3(A, out):
+    """A⁻¹ of a 3 × 3 matrix into ``out``, by cofactors; det A."""
+    c00 = A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1]
+    c10 = A[1, 2] * A[2, 0] - A[1, 0] * A[2, 2]
+    c20 = A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]
+    det = A[0, 0] * c00 + A[0, 1] * c10 + A[0, 2] * c20
+    r = 1.0 / det
+    out[0, 0], out[1, 0], out[2, 0] = c00 * r, c10 * r, c20 * r
+    out[0, 1] = (A[0, 2] * A[2, 1] - A[0, 1] * A[2, 2]) * r
+    out[0, 2] = (A[0, 1] * A[1, 2] - A[0, 2] * A[1, 1]) * r
+    out[1, 1] = (A[0, 0] * A[2, 2] - A[0, 2] * A[2, 0]) * r
+    out[1, 2] = (A[0, 2] * A[1, 0] - A[0, 0] * A[1, 2]) * r
+    out[2, 1] = (A[0, 1] * A[2, 0] - A[0, 0] * A[2, 1]) * r
+    out[2, 2] = (A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]) * r
+    return det
 
 
 @njit(**JIT)
 def polar(A):
     """rotation.polar, by Newton's iteration instead of an SVD: (R, U, S⁻¹, ok) with A = R U
     and S = tr U · I − U (``rotation.rotation_rate``); not ok for an inverted, degenerate or
-    non-finite A (the NumPy step then says which)."""
-    eye = np.eye(3)
-    if not np.all(np.isfinite(A)):
-        return eye, eye, eye, False
-    X = A.copy()
-    Xi, det = _inv3(X)
+    non-finite A (the NumPy step then says which). Three 3 × 3 buffers, swapped in place."""
+    X, Xi, Y = A.copy(), np.empty((3, 3)), np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            if not math.isfinite(A[i, j]):
+                return X, X, X, False
+    det = _inv3(X, Xi)
     if not det > 0.0:
-        return eye, eye, eye, False
+        return X, X, X, False
     for _ in range(POLAR_STEPS):
-        change = 0.0
-        size = 0.0
         scale = abs(det) ** (-1.0 / 3.0)
-        Xn = np.empty((3, 3))
+        change = 0.0
         for i in range(3):
             for j in range(3):
-                Xn[i, j] = 0.5 * (scale * X[i, j] + Xi[j, i] / scale)
-                change = max(change, abs(Xn[i, j] - X[i, j]))
-                size = max(size, abs(Xn[i, j]))
-        if change > POLAR_SCALED:
-            X = Xn
-            Xi, det = _inv3(X)
-            continue
-        for i in range(3):              # unscaled near the rotation: quadratic convergence
+                change = max(change, abs(0.5 * (scale * X[i, j] + Xi[j, i] / scale) - X[i, j]))
+        if change <= POLAR_SCALED:          # unscaled near the rotation: quadratic convergence
+            scale = 1.0
+        change = 0.0
+        size = 0.0
+        for i in range(3):
             for j in range(3):
-                Xn[i, j] = 0.5 * (X[i, j] + Xi[j, i])
-        change = np.abs(Xn - X).max()
-        X = Xn
-        if change <= POLAR_ULPS * EPS * size:
+                y = 0.5 * (scale * X[i, j] + Xi[j, i] / scale)
+                change = max(change, abs(y - X[i, j]))
+                size = max(size, abs(y))
+                Y[i, j] = y
+        X, Y = Y, X
+        if scale == 1.0 and change <= POLAR_ULPS * EPS * size:
             break
-        Xi, det = _inv3(X)
+        det = _inv3(X, Xi)
     U = mat3(X, A, True)
-    U = 0.5 * (U + U.T)
-    Ui, det_u = _inv3(U)
-    spread = math.sqrt((U * U).sum() * (Ui * Ui).sum())
-    S_inv, _ = _inv3((U[0, 0] + U[1, 1] + U[2, 2]) * eye - U)
+    for i in range(3):
+        for j in range(i + 1, 3):
+            U[i, j] = U[j, i] = 0.5 * (U[i, j] + U[j, i])
+    det_u = _inv3(U, Xi)
+    spread = math.sqrt((U * U).sum() * (Xi * Xi).sum())
+    trace = U[0, 0] + U[1, 1] + U[2, 2]
+    for i in range(3):
+        for j in range(3):
+            Y[i, j] = (trace if i == j else 0.0) - U[i, j]
+    S_inv = np.empty((3, 3))
+    _inv3(Y, S_inv)
     return X, U, S_inv, det_u > 0.0 and spread < POLAR_SPREAD
 
 

@@ -68,35 +68,40 @@ def corotated_state(q, v, H, k1, g1m, q0p, KP, mass_projected, damping, alpha, b
     e = Π Q_loc − Π Q0, ė = Π (Q̇ R + Q_loc [ω]×) with ω = S⁻¹ w(Rᵀ Q̇ᵀ H), and the force
     P − H [b]× row by row (h_fᵀ [b]× = h_f × b)."""
     nf = H.shape[0]
-    Q = q.reshape(nf, 3)
-    R, U, S_inv, ok = polar(tmul(Q, H))
-    local = mul(Q, R)
-    c = np.zeros(3)
-    for f in range(nf):
+    Q, Vd = q.reshape(nf, 3), v.reshape(nf, 3)
+    A, VH = np.zeros((3, 3)), np.zeros((3, 3))
+    for f in range(nf):                          # Qᵀ H and Q̇ᵀ H in one pass
+        for i in range(3):
+            x, y = Q[f, i], Vd[f, i]
+            for j in range(3):
+                A[i, j] += x * H[f, j]
+                VH[i, j] += y * H[f, j]
+    R, U, S_inv, ok = polar(A)
+    Om = skew(mv3(S_inv, axial(mat3(R, VH, True)))) if damping else np.zeros((3, 3))
+    local, rate = np.empty((nf, 3)), np.zeros((nf, 3))
+    c, cr = np.zeros(3), np.zeros(3)
+    for f in range(nf):                          # Q_loc = Q R, Q̇ R + Q_loc [ω]×, their means
         for j in range(3):
-            c[j] += g1m[f] * local[f, j]
-    e = np.empty((nf, 3))
-    for f in range(nf):
-        for j in range(3):
-            e[f, j] = local[f, j] - k1[f] * c[j] - q0p[f, j]
-    rate = np.zeros((nf, 3))
-    w = e.ravel()
-    if damping:
-        Vd = v.reshape(nf, 3)
-        omega = mv3(S_inv, axial(mat3(R, tmul(Vd, H), True)))
-        Om = skew(omega)
-        cr = np.zeros(3)
-        for f in range(nf):
+            x = Q[f, 0] * R[0, j] + Q[f, 1] * R[1, j] + Q[f, 2] * R[2, j]
+            local[f, j] = x
+            c[j] += g1m[f] * x
+        if damping:
             for j in range(3):
                 x = (Vd[f, 0] * R[0, j] + Vd[f, 1] * R[1, j] + Vd[f, 2] * R[2, j]
                      + local[f, 0] * Om[0, j] + local[f, 1] * Om[1, j] + local[f, 2] * Om[2, j])
                 rate[f, j] = x
                 cr[j] += g1m[f] * x
-        w = np.empty(3 * nf)
-        for f in range(nf):
-            for j in range(3):
-                rate[f, j] -= k1[f] * cr[j]
-                w[3 * f + j] = e[f, j] + beta * rate[f, j]
+    e = np.empty((nf, 3))
+    w = np.empty(3 * nf)
+    for f in range(nf):                          # Π applied; e + β ė
+        for j in range(3):
+            x = local[f, j] - k1[f] * c[j] - q0p[f, j]
+            e[f, j] = x
+            if damping:
+                y = rate[f, j] - k1[f] * cr[j]
+                rate[f, j] = y
+                x += beta * y
+            w[3 * f + j] = x
     z = KP @ w
     total = z.reshape(nf, 3)
     if damping and alpha != 0.0:

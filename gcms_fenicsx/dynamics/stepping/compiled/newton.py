@@ -108,7 +108,7 @@ def frame_capacitance(d):
     """The change-of-frame rows G_x, S₀⁻¹-solved B_x (the NumPy step's kept rows) copied
     beside the constraint units, and their blocks of W = [c(e); G_x] [S₀⁻¹ c(e)ᵀ, B_x]
     (``StepData.unit_capacitance``): products of length n, once per relinearisation."""
-    m, u = d.m, 3 * d.m
+    m, u = d.m, d.rows_all.shape[0] - d.rank
     d.rows_all[u:] = d.rows_exact[m:]
     d.solves_all[u:] = d.border_exact[m:]
     W = d.unit_capacitance
@@ -118,65 +118,69 @@ def frame_capacitance(d):
 
 
 @njit(**JIT)
-def prepare(d, exact, U, world):
+def prepare(exact, U, world, pad, W, index, rank):
     """BorderedKKT.prepare (the rank-9 rows already relinearised where asked), with the
     constraint rows never formed: in the frame, row i is G_i = Σ_l a_il c_i(e_l) and its
     solve B_iᵀ = Σ_l a_il S₀⁻¹ c_i(e_l)ᵀ (a_i = Rᵀ u_i, either kind of coordinates), so the
     capacitance matrix G B + [0 0; 0 I] follows from W (:func:`_frame_capacitance`) in
     O(m²): (a, its LU factors with pivots)."""
-    m = d.m
-    u = 3 * m
+    m = index.shape[0]
+    u = W.shape[0] - rank
     a = mul(U, world)
-    pad = d.pad_exact if exact else d.pad_plain
-    W = d.unit_capacitance
     cap = pad.copy()
     for i in range(m):
+        ki = 3 * index[i]
         for j in range(m):
+            kj = 3 * index[j]
             x = 0.0
             for l in range(3):
                 for l2 in range(3):
-                    x += a[i, l] * a[j, l2] * W[3 * i + l, 3 * j + l2]
+                    x += a[i, l] * a[j, l2] * W[ki + l, kj + l2]
             cap[i, j] -= x
     if exact:
         for i in range(m):
-            for r in range(d.rank):
+            for r in range(rank):
                 x = 0.0
                 y = 0.0
+                ki = 3 * index[i]
                 for l in range(3):
-                    x += a[i, l] * W[3 * i + l, u + r]
-                    y += a[i, l] * W[u + r, 3 * i + l]
+                    x += a[i, l] * W[ki + l, u + r]
+                    y += a[i, l] * W[u + r, ki + l]
                 cap[i, m + r] -= x
                 cap[m + r, i] -= y
-        for r in range(d.rank):
-            for s in range(d.rank):
+        for r in range(rank):
+            for s in range(rank):
                 cap[m + r, m + s] -= W[u + r, u + s]
     piv = lu_factor(cap)
     return a, cap, piv
 
 
 @njit(**JIT)
-def solve(d, bordered, exact, a, lu, piv, r, g, R, phase):
+def solve(bordered, a, lu, piv, r, g, R, phase, rotor, pairs, s0_inverse, rows_all, solves_all,
+          index, rank):
     """BorderedKKT.solve: (Δq, Δλ) for the residuals r (frame R) and g, the bordered rows
     applied through the units (:func:`_prepare`): two products with 3m (+ rank) rows."""
-    rotor, pairs, m = d.law == ROTOR, d.pairs, d.m
-    z = d.s0_inverse @ r
+    z = s0_inverse @ r
     if not bordered:
         return back(rotor, pairs, z, R, phase), np.zeros(0)
-    u = 3 * m
-    rows = u + (d.rank if exact else 0)
+    m = a.shape[0]
+    u = rows_all.shape[0] - rank
     k = lu.shape[0]
-    Gz = d.rows_all[:rows] @ z
+    rows = u + k - m
+    Gz = rows_all[:rows] @ z
     b = np.empty(k)
     for i in range(m):
-        b[i] = a[i, 0] * Gz[3 * i] + a[i, 1] * Gz[3 * i + 1] + a[i, 2] * Gz[3 * i + 2] - g[i]
+        ki = 3 * index[i]
+        b[i] = a[i, 0] * Gz[ki] + a[i, 1] * Gz[ki + 1] + a[i, 2] * Gz[ki + 2] - g[i]
     for r_ in range(k - m):
         b[m + r_] = Gz[u + r_]
     sol = lu_solve(lu, piv, b)
-    w = np.empty(rows)
+    w = np.zeros(rows)
     for i in range(m):
+        ki = 3 * index[i]
         for l in range(3):
-            w[3 * i + l] = sol[i] * a[i, l]
+            w[ki + l] += sol[i] * a[i, l]
     for r_ in range(k - m):
         w[u + r_] = sol[m + r_]
-    z += w @ d.solves_all[:rows]
+    z += w @ solves_all[:rows]
     return back(rotor, pairs, z, R, phase), sol[:m].copy()

@@ -53,23 +53,24 @@ def _directions_at(t, directions, drive_rows, drive_vectors, drive_params):
 
 
 @njit(**JIT)
-def _row_values(U, units_x):
-    """C x = [u_i · (c_i(e) x)]_i from the units' products ``units_x`` (3m,)."""
+def _row_values(U, units_x, index):
+    """C x = [u_i · (c_k(e) x)]_i, k = index[i], from the units' products ``units_x`` (3 nv,)."""
     m = U.shape[0]
     out = np.empty(m)
     for i in range(m):
-        out[i] = U[i, 0] * units_x[3 * i] + U[i, 1] * units_x[3 * i + 1] + U[i, 2] * units_x[3 * i + 2]
+        k = 3 * index[i]
+        out[i] = U[i, 0] * units_x[k] + U[i, 1] * units_x[k + 1] + U[i, 2] * units_x[k + 2]
     return out
 
 
 @njit(**JIT)
-def _rows_transposed(U, lam, units):
-    """Cᵀ λ = Σ_i λ_i Σ_l u_il c_i(e_l)."""
-    m = U.shape[0]
-    w = np.empty(3 * m)
-    for i in range(m):
+def _rows_transposed(U, lam, units, index):
+    """Cᵀ λ = Σ_i λ_i Σ_l u_il c_k(e_l), k = index[i]."""
+    w = np.zeros(units.shape[0])
+    for i in range(U.shape[0]):
+        k = 3 * index[i]
         for l in range(3):
-            w[3 * i + l] = lam[i] * U[i, l]
+            w[k + l] += lam[i] * U[i, l]
     return w @ units
 
 
@@ -168,7 +169,8 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc):
     kept_rows = np.empty((0, n))
     _predicted(d, Z)
     U = _directions_at(t1, d.directions, d.drive_rows, d.drive_vectors, d.drive_params)
-    units = d.rows_all[:3 * m]
+    units = d.rows_all[:d.rows_all.shape[0] - d.rank]
+    index = d.vector_index
     f_ext = _external_force(t1, d.gravity, d.load_vectors, d.load_params)
     corotated = d.law != SVK
     relin = d.exact_mode or policy[1] >= d.reuse_steps       # JacobianPolicy.start_step
@@ -190,8 +192,8 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc):
             break
         y = mass_acc - f_ext
         if m:
-            y += _rows_transposed(U, lam, units)
-            g = _row_values(U, units @ Z[0]) - d.targets
+            y += _rows_transposed(U, lam, units, index)
+            g = _row_values(U, units @ Z[0], index) - d.targets
         prepared = iteration == 1 or every
         upgrade = False
         while True:           # once, and again when a slow iteration upgrades the matrix
@@ -206,9 +208,11 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc):
                 if bordered:
                     P = d.projectors
                     world = P[0] + phase[0] * P[1] + phase[1] * P[2] if rotor else R
-                    a, lu, piv = prepare(d, exact, U, world)
+                    a, lu, piv = prepare(exact, U, world, d.pad_exact if exact else d.pad_plain,
+                                         d.unit_capacitance, index, d.rank)
             r = residual(rotor, d.pairs, y, gradient, R, phase, prepared, R_lin, phase_lin)
-            dq, dlam = solve(d, bordered, exact, a, lu, piv, r, g, R_lin, phase_lin)
+            dq, dlam = solve(bordered, a, lu, piv, r, g, R_lin, phase_lin, rotor, d.pairs,
+                             d.s0_inverse, d.rows_all, d.solves_all, index, d.rank)
             mass_dq = _mass_product(rotor, dq, d.mass, d.gram)
             delta = math.sqrt(abs(dq @ mass_dq) / d.total_mass)
             if upgrade or every or not delta > d.upgrade_rate * previous or not corotated:
@@ -218,9 +222,14 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc):
         if (not corotated and not every and delta > d.upgrade_rate * previous
                 and delta > d.tangent_rate * previous) or not delta < math.inf:
             break                          # redone with the SVK tangent, or failed
-        for row in range(4):
-            Z[row] += d.update[row] * dq
-        mass_acc += d.update[2] * mass_dq
+        u0, u1, u2, u3 = d.update[0], d.update[1], d.update[2], d.update[3]
+        for j in range(n):               # Z += u Δq, Mr q̈ += β' Mr Δq
+            x = dq[j]
+            Z[0, j] += u0 * x
+            Z[1, j] += u1 * x
+            Z[2, j] += u2 * x
+            Z[3, j] += u3 * x
+            mass_acc[j] += u2 * mass_dq[j]
         lam += dlam
         tol = d.tolerance
         if delta <= tol or (delta * delta <= tol * (previous - delta)
@@ -277,8 +286,8 @@ def run_stretch(d, rec, Z, lam, t, index, stop, h, policy, last):
         v = Z[1]
         if rec.energy:
             load = (f_ext - d.gravity) @ v if rec.loads else 0.0
-            constraint = (-(lam @ _row_values(U, d.rows_all[:3 * d.m] @ v)) if d.m
-                          else 0.0)
+            units = d.rows_all[:d.rows_all.shape[0] - d.rank]
+            constraint = (-(lam @ _row_values(U, units @ v, d.vector_index)) if d.m else 0.0)
             if counters[1]:
                 hh = rec.half_step
                 rec.work[0] += hh * (rec.power[0] + load)
