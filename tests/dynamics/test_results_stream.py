@@ -28,7 +28,7 @@ from gcms_fenicsx.files.versioned import dataset_digest
 from simulate_runs import assert_one_line_error, contents, output_folder, standalone, study
 
 #: The module (the package's ``simulate`` is the function of that name).
-SIMULATE_MODULE = importlib.import_module("gcms_fenicsx.dynamics.run.simulate")
+MARCH_MODULE = importlib.import_module("gcms_fenicsx.dynamics.run.march")
 #: Summary entries that are measured times, not results.
 TIMINGS = ("wall_time_s", "setup_time_s", "steps_per_second", "time_per_step_us")
 
@@ -168,7 +168,7 @@ def test_the_refusal_names_field_times_when_snapshots_dominate(body):
 def test_progress_lines_give_the_rate_and_the_time_left(body, monkeypatch):
     """Progress lines of a run (every step here) say how many of the steps are done, at what
     rate, and when the run will end; the first one gives the estimate of the results."""
-    monkeypatch.setattr(SIMULATE_MODULE, "PROGRESS_INTERVAL_S", -1.0)
+    monkeypatch.setattr(MARCH_MODULE, "PROGRESS_INTERVAL_S", -1.0)
     lines: list[str] = []
     simulate_body(body, parse_scene({"end_time": 0.01, "time_step": 1e-3}),
                   progress=lines.append)

@@ -147,6 +147,27 @@ def _relinearised(d, state):
 
 
 @njit(**JIT)
+def _linearised(d, state, exact, relinearise, policy, U, kept_rows):
+    """BorderedKKT.prepare at the law state ``state``: the rank-9 (rank-2) rows relinearised
+    where asked (or never made; the rows they replace kept in ``kept_rows`` for a hand-over),
+    then the bordered system's factors. (bordered, a, LU, pivots, kept_rows)."""
+    m = d.m
+    if exact and (relinearise or policy[2] == 0):
+        if kept_rows.shape[0] == 0:
+            kept_rows = np.concatenate((d.border_exact[m:], d.rows_exact[m:]))
+        _relinearised(d, state)
+        policy[2] = 1
+    bordered = m > 0 or exact
+    if not bordered:
+        return bordered, np.zeros((m, 3)), np.zeros((0, 0)), np.zeros(0, dtype=np.int64), kept_rows
+    R, phase, P = state[1], state[2], d.projectors
+    world = P[0] + phase[0] * P[1] + phase[1] * P[2] if d.law == ROTOR else R
+    a, lu, piv = prepare(exact, U, world, d.pad_exact if exact else d.pad_plain,
+                         d.unit_capacitance, d.vector_index, d.rank)
+    return bordered, a, lu, piv, kept_rows
+
+
+@njit(**JIT)
 def _predicted(d, Z):
     """Z ← P Z (``alpha.step_matrices``)."""
     Z0 = Z.copy()
@@ -199,17 +220,9 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc):
         while True:           # once, and again when a slow iteration upgrades the matrix
             if prepared:
                 R_lin, phase_lin = R, phase
-                if exact and (relin or every or policy[2] == 0):
-                    if kept_rows.shape[0] == 0:
-                        kept_rows = np.concatenate((d.border_exact[m:], d.rows_exact[m:]))
-                    _relinearised(d, state)
-                    policy[2] = 1
-                bordered = m > 0 or exact
-                if bordered:
-                    P = d.projectors
-                    world = P[0] + phase[0] * P[1] + phase[1] * P[2] if rotor else R
-                    a, lu, piv = prepare(exact, U, world, d.pad_exact if exact else d.pad_plain,
-                                         d.unit_capacitance, index, d.rank)
+                bordered, a, lu, piv, kept_rows = _linearised(d, state, exact,
+                                                              relin or every, policy, U,
+                                                              kept_rows)
             r = residual(rotor, d.pairs, y, gradient, R, phase, prepared, R_lin, phase_lin)
             dq, dlam = solve(bordered, a, lu, piv, r, g, R_lin, phase_lin, rotor, d.pairs,
                              d.s0_inverse, d.rows_all, d.solves_all, index, d.rank)
