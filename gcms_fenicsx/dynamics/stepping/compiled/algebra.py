@@ -94,9 +94,12 @@ def gram_product(G, X):
     product with k columns is slower at these shapes)."""
     nf, k = X.shape
     XT = np.ascontiguousarray(X.T)
+    column = np.empty(nf)
     out = np.empty((nf, k))
     for j in range(k):
-        out[:, j] = G @ XT[j]
+        np.dot(G, XT[j], column)
+        for f in range(nf):
+            out[f, j] = column[f]
     return out
 
 

@@ -56,7 +56,12 @@ def back(rotor, pairs, z, R, phase):
     """−T z."""
     if rotor:
         return _turn_pairs(-z, pairs, phase[0], phase[1])
-    return mul(z.reshape(-1, 3), -R.T).ravel()
+    out = np.empty_like(z)
+    for f in range(z.shape[0] // 3):        # −(R z_f) for every field
+        z0, z1, z2 = z[3 * f], z[3 * f + 1], z[3 * f + 2]
+        for j in range(3):
+            out[3 * f + j] = -(R[j, 0] * z0 + R[j, 1] * z1 + R[j, 2] * z2)
+    return out
 
 
 @njit(**JIT)

@@ -168,9 +168,8 @@ def _linearised(d, state, exact, relinearise, policy, U, kept_rows):
 
 
 @njit(**JIT)
-def _predicted(d, Z):
-    """Z ← P Z (``alpha.step_matrices``)."""
-    Z0 = Z.copy()
+def _predicted(d, Z, Z0):
+    """Z ← P Z0 (``alpha.step_matrices``)."""
     P = d.predictor
     for i in range(4):
         for j in range(Z.shape[1]):
@@ -188,7 +187,7 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc):
     rotor = d.law == ROTOR
     start = (Z.copy(), lam.copy(), mass_acc.copy(), policy.copy())
     kept_rows = np.empty((0, n))
-    _predicted(d, Z)
+    _predicted(d, Z, start[0])
     U = _directions_at(t1, d.directions, d.drive_rows, d.drive_vectors, d.drive_params)
     units = d.rows_all[:d.rows_all.shape[0] - d.rank]
     index = d.vector_index
