@@ -67,6 +67,7 @@ class StepData(NamedTuple):
     q0: np.ndarray             # rotor p0 (n,)
     plane_map: np.ndarray      # rotor (4, n)
     turn: np.ndarray           # rotor P Ĵ (n, n)
+    translation: np.ndarray    # rotor: the translation's coordinates (int)
     weights: np.ndarray        # rotor (w_c, w_s) (2, n)
     projectors: np.ndarray     # rotor A1, A2, A3 (3, 3, 3)
     damping: bool
@@ -157,6 +158,7 @@ def step_data(integrator: Any) -> StepData:
         q0=arr(body.q0) if rotor else EMPTY1,
         plane_map=arr(body.plane_map) if rotor else EMPTY2,
         turn=arr(body.turn) if rotor else EMPTY2,
+        translation=np.array(body.basis.translation if rotor else (), dtype=np.int64),
         weights=arr(body.weights) if rotor else EMPTY2,
         projectors=arr(np.array(body.frame._projectors)) if rotor else np.zeros((3, 3, 3)),
         damping=damping.active, damping_alpha=float(damping.alpha),

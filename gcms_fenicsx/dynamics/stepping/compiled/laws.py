@@ -16,47 +16,61 @@ COLLAPSED = 1e-12   # rotor.COLLAPSED
 
 
 @njit(**JIT)
-def _turn_pairs(y, pairs, c, s):
-    """A copy of y with its first ``pairs`` pairs (ξ + iζ) multiplied by c + i s."""
-    out = y.copy()
-    for j in range(pairs):
-        x, z = y[2 * j], y[2 * j + 1]
-        out[2 * j] = x * c - z * s
-        out[2 * j + 1] = x * s + z * c
+def residual(rotor, pairs, y, gradient, R_state, phase_state, same, R, phase, out):
+    """FieldFrame.residual / RotorFrame.residual: Tᵀ y + (T_Rᵀ T_state) gradient, into
+    ``out``."""
+    if rotor:
+        c, s = phase[0], -phase[1]
+        if phase_state[0] == phase[0] and phase_state[1] == phase[1]:
+            gc, gs = 1.0, 0.0
+            turned = False
+        else:
+            zr = complex(phase[0], phase[1]) / complex(phase_state[0], phase_state[1])
+            gc, gs = zr.real, -zr.imag
+            turned = True
+        for j in range(y.shape[0]):
+            out[j] = y[j]
+        for j in range(pairs):
+            x, z = y[2 * j], y[2 * j + 1]
+            out[2 * j] = x * c - z * s
+            out[2 * j + 1] = x * s + z * c
+        if turned:
+            for j in range(y.shape[0]):
+                out[j] += gradient[j] if j >= 2 * pairs else 0.0
+            for j in range(pairs):
+                x, z = gradient[2 * j], gradient[2 * j + 1]
+                out[2 * j] += x * gc - z * gs
+                out[2 * j + 1] += x * gs + z * gc
+        else:
+            for j in range(y.shape[0]):
+                out[j] += gradient[j]
+        return out
+    M = R if same else mat3(R_state, R, True)
+    for f in range(y.shape[0] // 3):
+        y0, y1, y2 = y[3 * f], y[3 * f + 1], y[3 * f + 2]
+        g0, g1, g2 = gradient[3 * f], gradient[3 * f + 1], gradient[3 * f + 2]
+        for j in range(3):
+            x = y0 * R[0, j] + y1 * R[1, j] + y2 * R[2, j]
+            if same:
+                x += gradient[3 * f + j]
+            else:
+                x += g0 * M[0, j] + g1 * M[1, j] + g2 * M[2, j]
+            out[3 * f + j] = x
     return out
 
 
 @njit(**JIT)
-def _to_local(rotor, pairs, y, R, phase):
-    """Tᵀ y."""
+def back(rotor, pairs, z, R, phase, out):
+    """−T z, into ``out``."""
     if rotor:
-        return _turn_pairs(y, pairs, phase[0], -phase[1])
-    return mul(y.reshape(-1, 3), R).ravel()
-
-
-@njit(**JIT)
-def residual(rotor, pairs, y, gradient, R_state, phase_state, same, R, phase):
-    """FieldFrame.residual / RotorFrame.residual: Tᵀ y + (T_Rᵀ T_state) gradient."""
-    r = _to_local(rotor, pairs, y, R, phase)
-    if rotor:
-        if phase_state[0] == phase[0] and phase_state[1] == phase[1]:
-            r += gradient
-        else:
-            z = complex(phase[0], phase[1]) / complex(phase_state[0], phase_state[1])
-            r += _turn_pairs(gradient, pairs, z.real, -z.imag)
-    elif same:
-        r += gradient
-    else:
-        r += mul(gradient.reshape(-1, 3), mat3(R_state, R, True)).ravel()
-    return r
-
-
-@njit(**JIT)
-def back(rotor, pairs, z, R, phase):
-    """−T z."""
-    if rotor:
-        return _turn_pairs(-z, pairs, phase[0], phase[1])
-    out = np.empty_like(z)
+        for j in range(z.shape[0]):
+            out[j] = -z[j]
+        c, s = phase[0], phase[1]
+        for j in range(pairs):
+            x, y = -z[2 * j], -z[2 * j + 1]
+            out[2 * j] = x * c - y * s
+            out[2 * j + 1] = x * s + y * c
+        return out
     for f in range(z.shape[0] // 3):        # −(R z_f) for every field
         z0, z1, z2 = z[3 * f], z[3 * f + 1], z[3 * f + 2]
         for j in range(3):
@@ -65,13 +79,14 @@ def back(rotor, pairs, z, R, phase):
 
 
 @njit(**JIT)
-def corotated_state(q, v, H, k1, g1m, q0p, KP, mass_projected, damping, alpha, beta):
+def corotated_state(q, v, H, k1, g1m, q0p, KP, mass_projected, damping, alpha, beta, work):
     """corotated.elastic_state with damping.DampingForce.local_force, fused (module
     docstring): (ok, R, U, S⁻¹, Tᵀ(∂V/∂q + f_d) (n,), Q_loc, e, ė, z = (Πᵀ ⊗ I3) Kr (e + β ė)).
     The energy, the dissipation and the elastic part alone follow from these
-    (:func:`_corotated_parts`). One pass over the fields per quantity: Q_loc = Q R,
+    (:func:`corotated_energies`, :func:`corotated_parts`). One pass over the fields per quantity: Q_loc = Q R,
     e = Π Q_loc − Π Q0, ė = Π (Q̇ R + Q_loc [ω]×) with ω = S⁻¹ w(Rᵀ Q̇ᵀ H), and the force
-    P − H [b]× row by row (h_fᵀ [b]× = h_f × b)."""
+    P − H [b]× row by row (h_fᵀ [b]× = h_f × b). Q_loc, e, ė, e + β ė, z and the force are
+    written into the stretch's ``work`` arrays (n each)."""
     nf = H.shape[0]
     Q, Vd = q.reshape(nf, 3), v.reshape(nf, 3)
     A, VH = np.zeros((3, 3)), np.zeros((3, 3))
@@ -83,7 +98,8 @@ def corotated_state(q, v, H, k1, g1m, q0p, KP, mass_projected, damping, alpha, b
                 VH[i, j] += y * H[f, j]
     R, U, S_inv, ok = polar(A)
     Om = skew(mv3(S_inv, axial(mat3(R, VH, True)))) if damping else np.zeros((3, 3))
-    local, rate = np.empty((nf, 3)), np.zeros((nf, 3))
+    local, rate = work[0].reshape(nf, 3), work[2].reshape(nf, 3)
+    rate[:, :] = 0.0
     c, cr = np.zeros(3), np.zeros(3)
     for f in range(nf):                          # Q_loc = Q R, Q̇ R + Q_loc [ω]×, their means
         for j in range(3):
@@ -96,8 +112,7 @@ def corotated_state(q, v, H, k1, g1m, q0p, KP, mass_projected, damping, alpha, b
                      + local[f, 0] * Om[0, j] + local[f, 1] * Om[1, j] + local[f, 2] * Om[2, j])
                 rate[f, j] = x
                 cr[j] += g1m[f] * x
-    e = np.empty((nf, 3))
-    w = np.empty(3 * nf)
+    e, w = work[1].reshape(nf, 3), work[3]
     for f in range(nf):                          # Π applied; e + β ė
         for j in range(3):
             x = local[f, j] - k1[f] * c[j] - q0p[f, j]
@@ -107,18 +122,41 @@ def corotated_state(q, v, H, k1, g1m, q0p, KP, mass_projected, damping, alpha, b
                 rate[f, j] = y
                 x += beta * y
             w[3 * f + j] = x
-    z = KP @ w
+    z = work[4]
+    np.dot(KP, w, z)
     total = z.reshape(nf, 3)
     if damping and alpha != 0.0:
         total = total + alpha * gram_product(mass_projected, rate)
     b = mv3(S_inv, axial(tmul(local, total)))
-    gradient = np.empty(3 * nf)
+    gradient = work[5]
     for f in range(nf):          # P_f − h_fᵀ [b]× = P_f − h_f × b
         h0, h1, h2 = H[f, 0], H[f, 1], H[f, 2]
         gradient[3 * f] = total[f, 0] - (h1 * b[2] - h2 * b[1])
         gradient[3 * f + 1] = total[f, 1] - (h2 * b[0] - h0 * b[2])
         gradient[3 * f + 2] = total[f, 2] - (h0 * b[1] - h1 * b[0])
     return ok, R, U, S_inv, gradient, local, e, rate, z
+
+
+@njit(**JIT)
+def corotated_energies(e, rate, z, KP, mass_projected, damping, alpha, beta, kr):
+    """V = ½ eᵀ Kr e and ėᵀ D₀ ė from :func:`corotated_state`'s e, ė and z: with damping one
+    product more, (Πᵀ ⊗ I3) Kr ė into ``kr`` (no other array made)."""
+    e1, z1 = e.ravel(), z
+    if not damping:
+        return 0.5 * (e1 @ z1), 0.0
+    r1 = rate.ravel()
+    energy, dissipation = 0.0, 0.0
+    if beta != 0.0:
+        np.dot(KP, r1, kr)
+        for j in range(e1.shape[0]):
+            energy += e1[j] * (z1[j] - beta * kr[j])
+            dissipation += r1[j] * kr[j]
+        dissipation *= beta
+    else:
+        energy = e1 @ z1
+    if alpha != 0.0:
+        dissipation += alpha * (r1 @ gram_product(mass_projected, rate).ravel())
+    return 0.5 * energy, dissipation
 
 
 @njit(**JIT)
@@ -145,9 +183,10 @@ def elastic_frame(local, P, H, S_inv):
 
 
 @njit(**JIT)
-def rotor_state(p, v, plane_map, p0, K, turn, weights, pairs, damping, D):
+def rotor_state(p, v, plane_map, p0, K, translation, weights, pairs, damping, D, work):
     """rotor.rotor_state, with rotor.RotorDamping.local_force: (ok, phase, Tᵀ(∂V/∂p + f_d),
-    V, ėᵀ D₀ ė, f, c, s, β, ρ)."""
+    V, ėᵀ D₀ ė, f, c, s, β, ρ); p_l, e, f, c, s, the force and the damping's ẋ, ė, D₀ ė are
+    written into the stretch's ``work`` arrays (n each)."""
     N = plane_map @ p
     X, Y = N[0] + N[3], N[2] - N[1]
     rho = math.hypot(X, Y)
@@ -156,21 +195,45 @@ def rotor_state(p, v, plane_map, p0, K, turn, weights, pairs, damping, D):
         z = np.zeros(n)
         return False, np.array([1.0, 0.0]), z, 0.0, 0.0, z, z, z, 0.0, 1.0
     phase = np.array([X / rho, Y / rho])
-    local = _turn_pairs(p, pairs, phase[0], -phase[1])
-    e = local - p0
-    f = K @ e
-    c = turn @ local
+    local, e, f, c, slope, gradient = work[0], work[1], work[2], work[3], work[4], work[5]
+    _turned_into(p, pairs, phase[0], -phase[1], local)
+    for j in range(n):
+        e[j] = local[j] - p0[j]
+        slope[j] = weights[1, j] / rho
+    np.dot(K, e, f)
+    for j in range(n):                   # c = P Ĵ p_l: each pair times i, the rest and t 0
+        c[j] = 0.0
+    for j in range(pairs):
+        c[2 * j], c[2 * j + 1] = -local[2 * j + 1], local[2 * j]
+    for t in translation:
+        c[t] = 0.0
     beta = f @ c
-    slope = weights[1] / rho
-    gradient = f - beta * slope
+    for j in range(n):
+        gradient[j] = f[j] - beta * slope[j]
     dissipation = 0.0
     if damping:
-        x = _turn_pairs(v, pairs, phase[0], -phase[1])
-        rate = x - c * (slope @ x)
-        y = D @ rate
-        gradient = gradient + (y - slope * (c @ y))
+        x, rate, y = work[6], work[7], work[8]
+        _turned_into(v, pairs, phase[0], -phase[1], x)
+        sx = slope @ x
+        for j in range(n):
+            rate[j] = x[j] - c[j] * sx
+        np.dot(D, rate, y)
+        cy = c @ y
+        for j in range(n):
+            gradient[j] += y[j] - slope[j] * cy
         dissipation = rate @ y
     return True, phase, gradient, 0.5 * (e @ f), dissipation, f, c, slope, beta, rho
+
+
+@njit(**JIT)
+def _turned_into(y, pairs, c, s, out):
+    """``out`` = y with its first ``pairs`` pairs multiplied by c + i s."""
+    for j in range(y.shape[0]):
+        out[j] = y[j]
+    for j in range(pairs):
+        x, z = y[2 * j], y[2 * j + 1]
+        out[2 * j] = x * c - z * s
+        out[2 * j + 1] = x * s + z * c
 
 
 @njit(**JIT)

@@ -157,30 +157,38 @@ def prepare(exact, U, world, pad, W, index, rank):
 
 @njit(**JIT)
 def solve(bordered, a, lu, piv, r, g, R, phase, rotor, pairs, s0_inverse, rows_all, solves_all,
-          index, rank):
+          index, rank, scratch):
     """BorderedKKT.solve: (Δq, Δλ) for the residuals r (frame R) and g, the bordered rows
-    applied through the units (:func:`_prepare`): two products with 3m (+ rank) rows."""
-    z = s0_inverse @ r
-    if not bordered:
-        return back(rotor, pairs, z, R, phase), np.zeros(0)
-    m = a.shape[0]
-    u = rows_all.shape[0] - rank
-    k = lu.shape[0]
-    rows = u + k - m
-    Gz = rows_all[:rows] @ z
-    b = np.empty(k)
-    for i in range(m):
-        ki = 3 * index[i]
-        b[i] = a[i, 0] * Gz[ki] + a[i, 1] * Gz[ki + 1] + a[i, 2] * Gz[ki + 2] - g[i]
-    for r_ in range(k - m):
-        b[m + r_] = Gz[u + r_]
-    sol = lu_solve(lu, piv, b)
-    w = np.zeros(rows)
-    for i in range(m):
-        ki = 3 * index[i]
-        for l in range(3):
-            w[ki + l] += sol[i] * a[i, l]
-    for r_ in range(k - m):
-        w[u + r_] = sol[m + r_]
-    z += w @ solves_all[:rows]
-    return back(rotor, pairs, z, R, phase), sol[:m].copy()
+    applied through the units (:func:`prepare`): two products with 3 nv (+ rank) rows. Δq is
+    written into ``scratch`` (``step.SCRATCH``), which also holds the products."""
+    z = scratch[0]
+    np.dot(s0_inverse, r, z)
+    if bordered:
+        m = a.shape[0]
+        u = rows_all.shape[0] - rank
+        k = lu.shape[0]
+        rows = u + k - m
+        Gz = scratch[4][:rows]
+        np.dot(rows_all[:rows], z, Gz)
+        b = np.empty(k)
+        for i in range(m):
+            ki = 3 * index[i]
+            b[i] = a[i, 0] * Gz[ki] + a[i, 1] * Gz[ki + 1] + a[i, 2] * Gz[ki + 2] - g[i]
+        for r_ in range(k - m):
+            b[m + r_] = Gz[u + r_]
+        sol = lu_solve(lu, piv, b)
+        w = scratch[5][:rows]
+        w[:] = 0.0
+        for i in range(m):
+            ki = 3 * index[i]
+            for l in range(3):
+                w[ki + l] += sol[i] * a[i, l]
+        for r_ in range(k - m):
+            w[u + r_] = sol[m + r_]
+        t = scratch[1]
+        np.dot(w, solves_all[:rows], t)
+        z += t
+        dlam = sol[:m].copy()
+    else:
+        dlam = np.zeros(0)
+    return back(rotor, pairs, z, R, phase, scratch[2]), dlam

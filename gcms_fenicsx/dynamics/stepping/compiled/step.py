@@ -10,7 +10,8 @@ import numpy as np
 from numba import njit
 
 from gcms_fenicsx.dynamics.stepping.compiled.algebra import JIT, gram_product
-from gcms_fenicsx.dynamics.stepping.compiled.laws import (corotated_parts, corotated_state,
+from gcms_fenicsx.dynamics.stepping.compiled.laws import (corotated_energies, corotated_parts,
+                                                          corotated_state,
                                                           elastic_frame, residual, rotor_state,
                                                           svk_state)
 from gcms_fenicsx.dynamics.stepping.compiled.newton import (apply_A, field_frame_update,
@@ -22,6 +23,11 @@ from gcms_fenicsx.dynamics.stepping.kernel_data import COROTATED, ROTOR, SVK
 #: Status of a stretch: it reached its last step, the recorder's block is full, or the next
 #: step is handed over to the NumPy step.
 DONE, BLOCK_FULL, HANDED_OVER = 0, 1, 2
+#: The work arrays a stretch allocates once (:func:`_scratch`): S₀⁻¹ r and the correction
+#: (0), the solves' product (1), Δq (2), the residual (3), the units' products and weights
+#: (4, 5), Mr q̈ − f_ext + Cᵀλ (6); empty arrays that type the laws' unused state (7–10); the
+#: law's own work arrays (11); Mr Δq (12); Cᵀλ (13); f_ext and the loads' factors (14, 15);
+#: what types a step's linearisation before it is made: I, a, pivots, kept rows (16–19).
 
 
 @njit(**JIT)
@@ -64,61 +70,76 @@ def _row_values(U, units_x, index):
 
 
 @njit(**JIT)
-def _rows_transposed(U, lam, units, index):
-    """Cᵀ λ = Σ_i λ_i Σ_l u_il c_k(e_l), k = index[i]."""
-    w = np.zeros(units.shape[0])
+def _add_rows_transposed(U, lam, units, index, w, product, y):
+    """y += Cᵀ λ = Σ_i λ_i Σ_l u_il c_k(e_l), k = index[i] (``w``, ``product``: work)."""
+    w[:] = 0.0
     for i in range(U.shape[0]):
         k = 3 * index[i]
         for l in range(3):
             w[k + l] += lam[i] * U[i, l]
-    return w @ units
+    np.dot(w, units, product)
+    for j in range(y.shape[0]):
+        y[j] += product[j]
 
 
 @njit(**JIT)
-def _external_force(t, gravity, load_vectors, load_params):
-    """ExternalForces.__call__: f_g + Σ_j s_j(t) b_j."""
+def _external_force(t, gravity, load_vectors, load_params, factors, out):
+    """ExternalForces.__call__: f_g + Σ_j s_j(t) b_j (into ``out``; ``factors``: work)."""
     L = load_params.shape[0]
     if L == 0:
         return gravity
-    f = np.empty(L)
     for j in range(L):
         kind, T = load_params[j, 0], load_params[j, 1]
         freq, phase = load_params[j, 2], load_params[j, 3]
         if kind == 1.0:
-            f[j] = min(t / T, 1.0)
+            factors[j] = min(t / T, 1.0)
         elif kind == 2.0:
             wave = math.sin(2.0 * math.pi * freq * t + phase)
-            f[j] = wave if t >= T else 0.5 * (1.0 - math.cos(math.pi * t / T)) * wave
+            factors[j] = wave if t >= T else 0.5 * (1.0 - math.cos(math.pi * t / T)) * wave
         else:
-            f[j] = 1.0
-    return gravity + f @ load_vectors
+            factors[j] = 1.0
+    np.dot(factors, load_vectors, out)
+    for j in range(out.shape[0]):
+        out[j] += gravity[j]
+    return out
 
 
 @njit(**JIT)
-def _mass_product(rotor, x, mass, gram):
-    """Mr x: G ⊗ I3 on GCMS coordinates, Mp on rotor coordinates."""
+def _mass_product(rotor, x, mass, gram, out):
+    """Mr x: G ⊗ I3 on GCMS coordinates, Mp on rotor coordinates (into ``out``)."""
     if rotor:
-        return mass @ x
+        np.dot(mass, x, out)
+        return out
     return gram_product(gram, x.reshape(gram.shape[0], 3)).ravel()
 
 
 @njit(**JIT)
-def _law_state(d, q, v):
+def _scratch(n, rows, m, loads):
+    """The stretch's work arrays (module constants)."""
+    return (np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(rows), np.empty(rows),
+            np.empty(n), np.empty((0, 3)), np.empty((0, 0)), np.empty(0), np.array([1.0, 0.0]),
+            (np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+             np.empty(n), np.empty(n), np.empty(n)), np.empty(n), np.empty(n), np.empty(n),
+            np.empty(loads), np.eye(3), np.empty((m, 3)), np.empty(0, dtype=np.int64),
+            np.empty((0, n)))
+
+
+@njit(**JIT)
+def _law_state(d, q, v, scratch):
     """The running law at (q, q̇): (ok, R, phase, Tᵀ(∂V/∂q + f_d), V, ėᵀ D₀ ė, then what its
     change of frame needs: co-rotated (U, S⁻¹, Q_loc, e, ė, z), rotor (f, c, s, β, ρ)); the
-    other laws' entries empty. The co-rotated V and ėᵀ D₀ ė are 0 here (``corotated_parts``)."""
-    none3, none2, none1 = np.empty((0, 3)), np.empty((0, 0)), np.empty(0)
-    still = np.array([1.0, 0.0])
+    other laws' entries empty. The co-rotated V and ėᵀ D₀ ė are 0 here (``corotated_energies``)."""
+    none3, none2, none1, still = scratch[7], scratch[8], scratch[9], scratch[10]
     if d.law == COROTATED:
         ok, R, Us, S_inv, gradient, local, e, rate, z = corotated_state(
             q, v, d.affine, d.unit, d.unit_dual, d.q0_projected, d.projected,
-            d.mass_projected, d.damping, d.damping_alpha, d.damping_beta)
+            d.mass_projected, d.damping, d.damping_alpha, d.damping_beta, scratch[11])
         return (ok, R, still, gradient, 0.0, 0.0, Us, S_inv, local, e, rate, z,
                 none1, none1, none1, 0.0, 1.0)
     if d.law == ROTOR:
         ok, phase, gradient, energy, dissipation, f, c, slope, beta, rho = rotor_state(
-            q, v, d.plane_map, d.q0, d.stiffness, d.turn, d.weights, d.pairs, d.damping,
-            d.rotor_damping)
+            q, v, d.plane_map, d.q0, d.stiffness, d.translation, d.weights, d.pairs, d.damping,
+            d.rotor_damping, scratch[11])
         return (ok, np.eye(3), phase, gradient, energy, dissipation, none2, none2, none3,
                 none3, none3, none1, f, c, slope, beta, rho)
     ok, R, gradient, energy = svk_state(q, d.affine, d.unit, d.unit_dual, d.svk_reference,
@@ -144,6 +165,26 @@ def _relinearised(d, state):
                                   d.unit_dual, d.stiffness, d.gram, d.gamma_p,
                                   d.damping_alpha, d.damping_beta)
     relinearise(d, X, Y, S_inv)
+
+
+@njit(**JIT)
+def _inertia_and_rows(U, lam, q, mass_acc, f_ext, units, index, targets, y, w, products,
+                      transposed):
+    """(y, g): y = Mr q̈ − f_ext + Cᵀ λ (into ``y``) and g = C q − d, through the units (``w``,
+    ``products``, ``transposed``: work arrays)."""
+    for j in range(y.shape[0]):
+        y[j] = mass_acc[j] - f_ext[j]
+    m = U.shape[0]
+    if not m:
+        return y, np.zeros(0)
+    u = units.shape[0]
+    _add_rows_transposed(U, lam, units, index, w[:u], transposed, y)
+    units_q = products[:u]
+    np.dot(units, q, units_q)
+    g = _row_values(U, units_q, index)
+    for i in range(m):
+        g[i] -= targets[i]
+    return y, g
 
 
 @njit(**JIT)
@@ -177,43 +218,40 @@ def _predicted(d, Z, Z0):
 
 
 @njit(**JIT)
-def _step(d, Z, lam, t1, policy, energies, mass_acc):
+def _step(d, Z, lam, t1, policy, energies, mass_acc, scratch):
     """One step from Z (4 × n), λ to t1, in place (integrator.GeneralizedAlpha.step). Returns
     (converged, iterations, V, ėᵀ D₀ ė, f_ext, u(t1)), V and ėᵀ D₀ ė only if ``energies``;
     ``mass_acc`` is Mr q̈ of Z, kept so. Not converged: Z, λ, Mr q̈, the policy
     ([frame_terms, kept_steps, kept]) and the kept rank-9 rows as they were, for the NumPy
     step to take the step."""
-    n, m = d.n, d.m
+    n = d.n
     rotor = d.law == ROTOR
     start = (Z.copy(), lam.copy(), mass_acc.copy(), policy.copy())
-    kept_rows = np.empty((0, n))
+    kept_rows = scratch[19]
     _predicted(d, Z, start[0])
     U = _directions_at(t1, d.directions, d.drive_rows, d.drive_vectors, d.drive_params)
     units = d.rows_all[:d.rows_all.shape[0] - d.rank]
-    index = d.vector_index
-    f_ext = _external_force(t1, d.gravity, d.load_vectors, d.load_params)
+    f_ext = _external_force(t1, d.gravity, d.load_vectors, d.load_params, scratch[15],
+                            scratch[14])
     corotated = d.law != SVK
     relin = d.exact_mode or policy[1] >= d.reuse_steps       # JacobianPolicy.start_step
     policy[1] = 0 if relin else policy[1] + 1
     exact = d.exact_mode or policy[0] == 1
     every = bordered = converged = False
-    g = np.zeros(m)
     previous = delta = math.inf
-    R_lin, phase_lin = np.eye(3), np.array([1.0, 0.0])
-    a, lu, piv = np.zeros((m, 3)), np.zeros((0, 0)), np.zeros(0, dtype=np.int64)
-    state = _law_state(d, Z[0], Z[1])
+    R_lin, phase_lin = scratch[16], scratch[10]
+    a, lu, piv = scratch[17], scratch[8], scratch[18]
+    state = _law_state(d, Z[0], Z[1], scratch)
     iteration = 0
     while iteration < d.max_iterations:
         iteration += 1
         if iteration > 1:
-            state = _law_state(d, Z[0], Z[1])
+            state = _law_state(d, Z[0], Z[1], scratch)
         ok, R, phase, gradient = state[0], state[1], state[2], state[3]
         if not ok:
             break
-        y = mass_acc - f_ext
-        if m:
-            y += _rows_transposed(U, lam, units, index)
-            g = _row_values(U, units @ Z[0], index) - d.targets
+        y, g = _inertia_and_rows(U, lam, Z[0], mass_acc, f_ext, units, d.vector_index,
+                                 d.targets, scratch[6], scratch[5], scratch[4], scratch[13])
         prepared = iteration == 1 or every
         upgrade = False
         while True:           # once, and again when a slow iteration upgrades the matrix
@@ -222,10 +260,12 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc):
                 bordered, a, lu, piv, kept_rows = _linearised(d, state, exact,
                                                               relin or every, policy, U,
                                                               kept_rows)
-            r = residual(rotor, d.pairs, y, gradient, R, phase, prepared, R_lin, phase_lin)
+            r = residual(rotor, d.pairs, y, gradient, R, phase, prepared, R_lin, phase_lin,
+                         scratch[3])
             dq, dlam = solve(bordered, a, lu, piv, r, g, R_lin, phase_lin, rotor, d.pairs,
-                             d.s0_inverse, d.rows_all, d.solves_all, index, d.rank)
-            mass_dq = _mass_product(rotor, dq, d.mass, d.gram)
+                             d.s0_inverse, d.rows_all, d.solves_all, d.vector_index, d.rank,
+                             scratch)
+            mass_dq = _mass_product(rotor, dq, d.mass, d.gram, scratch[12])
             delta = math.sqrt(abs(dq @ mass_dq) / d.total_mass)
             if upgrade or every or not delta > d.upgrade_rate * previous or not corotated:
                 break
@@ -251,9 +291,9 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc):
         previous = delta
     energy, dissipation = state[4], state[5]
     if converged and energies and d.law == COROTATED:
-        energy, dissipation, _ = corotated_parts(state[9], state[10], state[11], d.projected,
+        energy, dissipation = corotated_energies(state[9], state[10], state[11], d.projected,
                                                  d.mass_projected, d.damping, d.damping_alpha,
-                                                 d.damping_beta)
+                                                 d.damping_beta, scratch[13])
     if not converged:
         _restore(d, Z, lam, mass_acc, policy, start, kept_rows)
     return converged, iteration, energy, dissipation, f_ext, U
@@ -284,11 +324,13 @@ def run_stretch(d, rec, Z, lam, t, index, stop, h, policy, last):
     if policy[2] and d.rank:
         frame_capacitance(d)        # the kept rows may have been set by the NumPy step
     # Mr q̈, kept up to date by every correction's Mr Δq (the predictor keeps q̈)
-    mass_acc = _mass_product(d.law == ROTOR, Z[2].copy(), d.mass, d.gram)
+    mass_acc = _mass_product(d.law == ROTOR, Z[2].copy(), d.mass, d.gram, np.empty(d.n)).copy()
+    scratch = _scratch(d.n, d.rows_all.shape[0], d.m, d.load_params.shape[0])
     while index < stop:
         t1 = t + h
         converged, iterations, energy, dissipation, f_ext, U = _step(d, Z, lam, t1, policy,
-                                                                     rec.energy, mass_acc)
+                                                                     rec.energy, mass_acc,
+                                                                     scratch)
         if not converged:
             return HANDED_OVER, taken, t
         t, index = t1, index + 1
