@@ -128,26 +128,22 @@ def prepare(exact, U, world, pad, W, index, rank):
     u = W.shape[0] - rank
     a = mul(U, world)
     cap = pad.copy()
+    aW = np.empty((m, W.shape[1]))            # a_i · W[3k_i + l, :] over l: the rows of G W
     for i in range(m):
         ki = 3 * index[i]
+        for c in range(W.shape[1]):
+            aW[i, c] = a[i, 0] * W[ki, c] + a[i, 1] * W[ki + 1, c] + a[i, 2] * W[ki + 2, c]
+    for i in range(m):
         for j in range(m):
             kj = 3 * index[j]
-            x = 0.0
-            for l in range(3):
-                for l2 in range(3):
-                    x += a[i, l] * a[j, l2] * W[ki + l, kj + l2]
-            cap[i, j] -= x
+            cap[i, j] -= aW[i, kj] * a[j, 0] + aW[i, kj + 1] * a[j, 1] + aW[i, kj + 2] * a[j, 2]
     if exact:
         for i in range(m):
+            ki = 3 * index[i]
             for r in range(rank):
-                x = 0.0
-                y = 0.0
-                ki = 3 * index[i]
-                for l in range(3):
-                    x += a[i, l] * W[ki + l, u + r]
-                    y += a[i, l] * W[u + r, ki + l]
-                cap[i, m + r] -= x
-                cap[m + r, i] -= y
+                cap[i, m + r] -= aW[i, u + r]
+                cap[m + r, i] -= (a[i, 0] * W[u + r, ki] + a[i, 1] * W[u + r, ki + 1]
+                                  + a[i, 2] * W[u + r, ki + 2])
         for r in range(rank):
             for s in range(rank):
                 cap[m + r, m + s] -= W[u + r, u + s]
