@@ -210,10 +210,9 @@ def lu_factor(A):
 
 
 @njit(**JIT)
-def lu_solve(LU, piv, b):
-    """x with A x = b from :func:`_lu_factor`."""
+def lu_solve(LU, piv, x):
+    """x ← A⁻¹ x in place, A's factors from :func:`lu_factor`."""
     k = LU.shape[0]
-    x = b.copy()
     for c in range(k):                 # P b: the rows were swapped whole, L's columns too
         p = piv[c]
         if p != c:

@@ -166,13 +166,13 @@ def solve(bordered, a, lu, piv, r, g, R, phase, rotor, pairs, s0_inverse, rows_a
         rows = u + k - m
         Gz = scratch[4][:rows]
         np.dot(rows_all[:rows], z, Gz)
-        b = np.empty(k)
+        b = scratch[20][:k]
         for i in range(m):
             ki = 3 * index[i]
             b[i] = a[i, 0] * Gz[ki] + a[i, 1] * Gz[ki + 1] + a[i, 2] * Gz[ki + 2] - g[i]
         for r_ in range(k - m):
             b[m + r_] = Gz[u + r_]
-        sol = lu_solve(lu, piv, b)
+        sol = lu_solve(lu, piv, b)           # in place: Δλ is a view of the work array
         w = scratch[5][:rows]
         w[:] = 0.0
         for i in range(m):
@@ -184,7 +184,7 @@ def solve(bordered, a, lu, piv, r, g, R, phase, rotor, pairs, s0_inverse, rows_a
         t = scratch[1]
         np.dot(w, solves_all[:rows], t)
         z += t
-        dlam = sol[:m].copy()
+        dlam = sol[:m]
     else:
-        dlam = np.zeros(0)
+        dlam = scratch[9]
     return back(rotor, pairs, z, R, phase, scratch[2]), dlam

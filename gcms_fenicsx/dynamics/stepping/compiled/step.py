@@ -27,7 +27,9 @@ DONE, BLOCK_FULL, HANDED_OVER = 0, 1, 2
 #: (0), the solves' product (1), Δq (2), the residual (3), the units' products and weights
 #: (4, 5), Mr q̈ − f_ext + Cᵀλ (6); empty arrays that type the laws' unused state (7–10); the
 #: law's own work arrays (11); Mr Δq (12); Cᵀλ (13); f_ext and the loads' factors (14, 15);
-#: what types a step's linearisation before it is made: I, a, pivots, kept rows (16–19).
+#: what types a step's linearisation before it is made: I, a, pivots, kept rows (16–19); the
+#: bordered system's right-hand side and solution (20); g (21); Z, λ, Mr q̈ and the policy at
+#: the step's start (22–25).
 
 
 @njit(**JIT)
@@ -59,10 +61,10 @@ def _directions_at(t, directions, drive_rows, drive_vectors, drive_params):
 
 
 @njit(**JIT)
-def _row_values(U, units_x, index):
-    """C x = [u_i · (c_k(e) x)]_i, k = index[i], from the units' products ``units_x`` (3 nv,)."""
+def _row_values(U, units_x, index, out):
+    """C x = [u_i · (c_k(e) x)]_i, k = index[i], from the units' products ``units_x`` (3 nv,),
+    into ``out``."""
     m = U.shape[0]
-    out = np.empty(m)
     for i in range(m):
         k = 3 * index[i]
         out[i] = U[i, 0] * units_x[k] + U[i, 1] * units_x[k + 1] + U[i, 2] * units_x[k + 2]
@@ -114,14 +116,15 @@ def _mass_product(rotor, x, mass, gram, out):
 
 
 @njit(**JIT)
-def _scratch(n, rows, m, loads):
+def _scratch(n, rows, m, loads, k):
     """The stretch's work arrays (module constants)."""
     return (np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(rows), np.empty(rows),
             np.empty(n), np.empty((0, 3)), np.empty((0, 0)), np.empty(0), np.array([1.0, 0.0]),
             (np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
              np.empty(n), np.empty(n), np.empty(n)), np.empty(n), np.empty(n), np.empty(n),
             np.empty(loads), np.eye(3), np.empty((m, 3)), np.empty(0, dtype=np.int64),
-            np.empty((0, n)))
+            np.empty((0, n)), np.empty(k), np.empty(m), np.empty((4, n)), np.empty(m),
+            np.empty(n), np.empty(3, dtype=np.int64))
 
 
 @njit(**JIT)
@@ -169,19 +172,19 @@ def _relinearised(d, state):
 
 @njit(**JIT)
 def _inertia_and_rows(U, lam, q, mass_acc, f_ext, units, index, targets, y, w, products,
-                      transposed):
+                      transposed, g_out):
     """(y, g): y = Mr q̈ − f_ext + Cᵀ λ (into ``y``) and g = C q − d, through the units (``w``,
     ``products``, ``transposed``: work arrays)."""
     for j in range(y.shape[0]):
         y[j] = mass_acc[j] - f_ext[j]
     m = U.shape[0]
     if not m:
-        return y, np.zeros(0)
+        return y, g_out
     u = units.shape[0]
     _add_rows_transposed(U, lam, units, index, w[:u], transposed, y)
     units_q = products[:u]
     np.dot(units, q, units_q)
-    g = _row_values(U, units_q, index)
+    g = _row_values(U, units_q, index, g_out)
     for i in range(m):
         g[i] -= targets[i]
     return y, g
@@ -226,7 +229,7 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc, scratch):
     step to take the step."""
     n = d.n
     rotor = d.law == ROTOR
-    start = (Z.copy(), lam.copy(), mass_acc.copy(), policy.copy())
+    start = _saved(Z, lam, mass_acc, policy, scratch)
     kept_rows = scratch[19]
     _predicted(d, Z, start[0])
     U = _directions_at(t1, d.directions, d.drive_rows, d.drive_vectors, d.drive_params)
@@ -251,7 +254,8 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc, scratch):
         if not ok:
             break
         y, g = _inertia_and_rows(U, lam, Z[0], mass_acc, f_ext, units, d.vector_index,
-                                 d.targets, scratch[6], scratch[5], scratch[4], scratch[13])
+                                 d.targets, scratch[6], scratch[5], scratch[4], scratch[13],
+                                 scratch[21])
         prepared = iteration == 1 or every
         upgrade = False
         while True:           # once, and again when a slow iteration upgrades the matrix
@@ -300,6 +304,17 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc, scratch):
 
 
 @njit(**JIT)
+def _saved(Z, lam, mass_acc, policy, scratch):
+    """Z, λ, Mr q̈ and the policy at a step's start, copied into the stretch's work arrays."""
+    start = (scratch[22], scratch[23], scratch[24], scratch[25])
+    start[0][:, :] = Z
+    start[1][:] = lam
+    start[2][:] = mass_acc
+    start[3][:] = policy
+    return start
+
+
+@njit(**JIT)
 def _restore(d, Z, lam, mass_acc, policy, start, kept_rows):
     """A step handed over: everything it changed as it was before it."""
     Z[:, :] = start[0]
@@ -325,7 +340,8 @@ def run_stretch(d, rec, Z, lam, t, index, stop, h, policy, last):
         frame_capacitance(d)        # the kept rows may have been set by the NumPy step
     # Mr q̈, kept up to date by every correction's Mr Δq (the predictor keeps q̈)
     mass_acc = _mass_product(d.law == ROTOR, Z[2].copy(), d.mass, d.gram, np.empty(d.n)).copy()
-    scratch = _scratch(d.n, d.rows_all.shape[0], d.m, d.load_params.shape[0])
+    scratch = _scratch(d.n, d.rows_all.shape[0], d.m, d.load_params.shape[0],
+                       d.pad_exact.shape[0])
     while index < stop:
         t1 = t + h
         converged, iterations, energy, dissipation, f_ext, U = _step(d, Z, lam, t1, policy,
@@ -341,7 +357,8 @@ def run_stretch(d, rec, Z, lam, t, index, stop, h, policy, last):
         if rec.energy:
             load = (f_ext - d.gravity) @ v if rec.loads else 0.0
             units = d.rows_all[:d.rows_all.shape[0] - d.rank]
-            constraint = (-(lam @ _row_values(U, units @ v, d.vector_index)) if d.m else 0.0)
+            constraint = (-(lam @ _row_values(U, units @ v, d.vector_index, scratch[21]))
+                          if d.m else 0.0)
             if counters[1]:
                 hh = rec.half_step
                 rec.work[0] += hh * (rec.power[0] + load)
