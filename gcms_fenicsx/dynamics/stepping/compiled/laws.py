@@ -28,12 +28,7 @@ def residual(rotor, pairs, y, gradient, R_state, phase_state, same, R, phase, ou
             zr = complex(phase[0], phase[1]) / complex(phase_state[0], phase_state[1])
             gc, gs = zr.real, -zr.imag
             turned = True
-        for j in range(y.shape[0]):
-            out[j] = y[j]
-        for j in range(pairs):
-            x, z = y[2 * j], y[2 * j + 1]
-            out[2 * j] = x * c - z * s
-            out[2 * j + 1] = x * s + z * c
+        _turned_into(y, pairs, c, s, out)
         if turned:
             for j in range(y.shape[0]):
                 out[j] += gradient[j] if j >= 2 * pairs else 0.0
@@ -63,13 +58,9 @@ def residual(rotor, pairs, y, gradient, R_state, phase_state, same, R, phase, ou
 def back(rotor, pairs, z, R, phase, out):
     """−T z, into ``out``."""
     if rotor:
+        _turned_into(z, pairs, phase[0], phase[1], out)
         for j in range(z.shape[0]):
-            out[j] = -z[j]
-        c, s = phase[0], phase[1]
-        for j in range(pairs):
-            x, y = -z[2 * j], -z[2 * j + 1]
-            out[2 * j] = x * c - y * s
-            out[2 * j + 1] = x * s + y * c
+            out[j] = -out[j]
         return out
     for f in range(z.shape[0] // 3):        # −(R z_f) for every field
         z0, z1, z2 = z[3 * f], z[3 * f + 1], z[3 * f + 2]

@@ -339,7 +339,7 @@ def run_stretch(d, rec, Z, lam, t, index, stop, h, policy, last):
     if policy[2] and d.rank:
         frame_capacitance(d)        # the kept rows may have been set by the NumPy step
     # Mr q̈, kept up to date by every correction's Mr Δq (the predictor keeps q̈)
-    mass_acc = _mass_product(d.law == ROTOR, Z[2].copy(), d.mass, d.gram, np.empty(d.n)).copy()
+    mass_acc = _mass_product(d.law == ROTOR, Z[2], d.mass, d.gram, np.empty(d.n))
     scratch = _scratch(d.n, d.rows_all.shape[0], d.m, d.load_params.shape[0],
                        d.pad_exact.shape[0])
     while index < stop:
