@@ -17,6 +17,9 @@ absent.
 """
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
 from dataclasses import replace
 
 import numpy as np
@@ -212,3 +215,24 @@ def test_a_kernel_that_does_not_compile_leaves_the_run_to_numpy(beam6, monkeypat
     assert summary["complete"] and summary["kernel"]["name"] == "numpy"
     assert ("warning: simulate: stepping in NumPy (the kernel did not compile: RuntimeError: "
             "no LLVM here)") in lines
+
+
+@pytest.mark.slow
+def test_a_damaged_kernel_cache_is_compiled_again(beam6):
+    """A cached kernel file that does not load (its bytes overwritten) is removed with its
+    folder and the kernel compiled afresh, in a new process as a user's next run: the run
+    steps compiled, not in NumPy."""
+    scene = parse_scene({"end_time": 2e-4, "time_step": 1e-4, "solver": {"kernel": "numba"}})
+    simulate(beam6, scene)                        # a cache to damage
+    damaged = list(kernel.cache_folder().rglob("step.run_stretch*.nbc"))
+    assert damaged
+    for path in damaged:
+        path.write_bytes(b"\x00not a pickle" * 64)
+    script = ("import json, sys; from gcms_fenicsx.dynamics import parse_scene, read_reduced, "
+              "simulate; s = simulate(read_reduced(sys.argv[1]), parse_scene({'end_time': 2e-4, "
+              "'time_step': 1e-4, 'solver': {'kernel': 'numba'}}))[1]; print(json.dumps(s['kernel']))")
+    run = subprocess.run([sys.executable, "-c", script, str(BEAM6)], capture_output=True,
+                         text=True, timeout=600)
+    assert run.returncode == 0, run.stderr
+    choice = json.loads(run.stdout.strip().splitlines()[-1])
+    assert choice["name"] == "numba" and choice["loaded_from_cache"] is False, choice

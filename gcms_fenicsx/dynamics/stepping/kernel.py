@@ -141,13 +141,19 @@ class CompiledStepper:
 
     def warm_up(self, recorder: Any, state: State) -> tuple[float, bool | None]:
         """Compile the kernel (or load it from the cache) by a stretch of no steps: (seconds,
-        whether it came from the cache; None if this process had it already)."""
+        whether it came from the cache; None if this process had it already). A cache that
+        does not load is removed and the kernel compiled again; a second failure is raised."""
         run = self.compiled.run_stretch
         stats = run.stats
         hits, misses = sum(stats.cache_hits.values()), sum(stats.cache_misses.values())
         start = time.perf_counter()
-        run(self.data, recorder.raw, state.Z.copy(), state.lam.copy(), state.t, 0, 0,
-            self.integrator.h, self.policy, self.last)
+        args = (self.data, recorder.raw, state.Z.copy(), state.lam.copy(), state.t, 0, 0,
+                self.integrator.h, self.policy, self.last)
+        try:
+            run(*args)
+        except Exception:        # a damaged cache fails to load: drop it and compile afresh
+            shutil.rmtree(cache_folder(), ignore_errors=True)
+            run(*args)
         seconds = time.perf_counter() - start
         if sum(stats.cache_hits.values()) > hits:
             return seconds, True
