@@ -41,11 +41,9 @@ class StepData(NamedTuple):
 
     law: int
     n: int
-    nf: int
     pairs: int                 # rotor: in-plane pairs first, 2·pairs coordinates
     predictor: np.ndarray      # (4, 4)
     update: np.ndarray         # (4,)
-    beta_p: float
     gamma_p: float
     tolerance: float           # m
     total_mass: float
@@ -119,7 +117,7 @@ def step_data(integrator: Any) -> StepData:
     body, c, linear = integrator.body, integrator.constraints, integrator.linear
     law = integrator.law_kind
     full = body.full if isinstance(body, RotorBody) else body
-    n, nf = body.dofs, full.field_count
+    n = body.dofs
     pr = full.projections
     m = c.count
     damping = integrator.damping
@@ -142,9 +140,9 @@ def step_data(integrator: Any) -> StepData:
     rows_all = np.vstack((units, np.zeros((rank, n))))
     solves_all = np.vstack((solves, np.zeros((rank, n))))
     return StepData(
-        law=law, n=n, nf=nf, pairs=body.frame.pairs if rotor else 0,
+        law=law, n=n, pairs=body.frame.pairs if rotor else 0,
         predictor=arr(integrator.predictor), update=arr(integrator.update.ravel()),
-        beta_p=float(integrator.beta_p), gamma_p=float(integrator.gamma_p),
+        gamma_p=float(integrator.gamma_p),
         tolerance=float(integrator.tolerance_m), total_mass=float(body.total_mass_kg),
         max_iterations=int(integrator.solver.max_iterations),
         exact_mode=integrator.solver.jacobian == "exact", upgrade_rate=UPGRADE_RATE,
