@@ -382,13 +382,6 @@ def main() -> None:
         print(before_after_table(rows, variants))
 
 
-def _cell(run: dict) -> tuple[str, str, str]:
-    if "failed" in run:
-        return "failed", "", ""
-    return (f"{run['steps_per_second']:,.0f}", f"{run['time_per_step_us']:,.0f}",
-            f"{run['newton_iterations_mean']:.2f}")
-
-
 def before_after_table(rows: list[dict], variants: dict[str, dict]) -> str:
     """µs per step before and after, with the trajectories' agreement, per case."""
     lines = table_head("case", "Nm", "reduced DOFs", "µs/step before", "µs/step after",
