@@ -249,7 +249,8 @@ def _parser_keys() -> dict[str, set[str]]:
                 "solver": {"tolerance": 1e-10, "max_iterations": 25, "jacobian": "rotated"},
                 "outputs": {"groups": ["end_xL"], "every": 1, "energy": True,
                             "constraint_forces": True, "coordinates": False,
-                            "field_times": [0.5]},
+                            "field_times": [0.5], "stress_groups": ["end_xL"],
+                            "stress_times": [0.5]},
                 "joints": [joint], "loads": [harmonic, ramp]}
         attempt(scene.parse_scene, {**base, "initial": {
             "velocity": [0, 0, 0], "angular_velocity": [0, 0, 0], "mode": 1,

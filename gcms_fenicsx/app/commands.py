@@ -29,6 +29,7 @@ from gcms_fenicsx.dynamics.run.study_run import finished, run_scene
 from gcms_fenicsx.files.names import MESH_FILES, MODES_FILES, REDUCE_FILES, SIMULATION_FILES
 from gcms_fenicsx.files.outputs import check_out, on_rank0, staged_output, write_json
 from gcms_fenicsx.files.reduced_model import ReducedModel
+from gcms_fenicsx.files.stress_nodes import StressNodes
 from gcms_fenicsx.runtime.interrupts import Interrupted
 from gcms_fenicsx.runtime.progress import Progress, progress_printer
 
@@ -67,7 +68,7 @@ def _verb(config: Path | None, out: Path, fresh: bool, upto: str, owns: tuple[st
             stage_cache.write_manifest(out, folder, owned, reuse)
         if scene != "none" and plan.scene is not None:
             summary = on_rank0(comm, scene_files, plan.scene, built.model, folder, progress,
-                               built.stages)
+                               built.stages, built.stress)
     if summary is not None and comm.rank == 0:
         summary = pictures(out, summary, progress)
     return built.texts, summary
@@ -97,11 +98,12 @@ def reduce(config: Path | None, out: Path, fresh: bool = False) -> str:
 # -- gcms simulate ------------------------------------------------------------------------
 
 def scene_files(plan: ScenePlan, model: ReducedModel, folder: Path, progress: Progress,
-                stages: dict) -> dict:
-    """The simulation stage into folder/results.h5 (``dynamics.run.study_run``), then
-    summary.json with the ``stages`` block; the summary."""
+                stages: dict, stress: StressNodes | None = None) -> dict:
+    """The simulation stage into folder/results.h5 (``dynamics.run.study_run``; the stresses
+    with the stress modes ``stress``), then summary.json with the ``stages`` block; the
+    summary."""
     t0 = time.perf_counter()
-    summary = run_scene(plan, model, folder, progress)
+    summary = run_scene(plan, model, folder, progress, stress)
     stage_files.record_stage(stages, "simulation", "computed", time.perf_counter() - t0)
     summary["stages"] = stages
     write_json(folder / "summary.json", summary)

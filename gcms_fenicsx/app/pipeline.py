@@ -1,7 +1,8 @@
 """The stages of a study as plain functions on plain data (docs/design.md §1).
 
     mesh_stage ─► body_mesh ─► assembly_stage ─► modes_stage ─► basis_stage
-               ─► reduction_stage [─► svk_stage]   then the scene: dynamics.run.study_run
+               ─► reduction_stage [─► svk_stage] [─► stress_stage]
+               then the scene: dynamics.run.study_run
 
 Each stage takes the tables and products it uses and returns a frozen product; none reads
 the whole study, writes a file of a command's or prints anything but progress. ``commands``
@@ -26,8 +27,10 @@ from geometry.params import Geometry, MeshParams
 from gcms_fenicsx.config.material import Material
 from gcms_fenicsx.config.modes import ModesConfig
 from gcms_fenicsx.config.selection import SelectionConfig
+from gcms_fenicsx.config.stress_outputs import StressOutputs
 from gcms_fenicsx.files.outputs import on_rank0
 from gcms_fenicsx.files.reduced_model import ReducedModel
+from gcms_fenicsx.files.stress_nodes import StressNodes
 from gcms_fenicsx.files.svk_data import SVKCoefficients
 from gcms_fenicsx.runtime.progress import Progress, quiet
 
@@ -182,3 +185,17 @@ def svk_stage(mesh_file: Path, fields: np.ndarray | None, material: Material,
     from gcms_fenicsx.fe.svk_coefficients import svk_coefficients
     mesh = read_mesh(mesh_file, {}, _world(comm)).mesh
     return svk_coefficients(mesh, fields, material, progress)
+
+
+def stress_stage(mesh_file: Path, groups: dict[str, int], stress: StressOutputs,
+                 node_count: int, key: str, progress: Progress = quiet, comm: Any = None
+                 ) -> StressNodes | None:
+    """The stress modes' mesh part for a scene's ``[scene.outputs]`` stresses, on the mesh in
+    ``mesh_file`` (its surface groups ``groups``: name → tag): the requested nodes and the
+    nodal gradient operator there (``fe.nodal_gradients``), on rank 0 (None on the others).
+    Collective."""
+    from gcms_fenicsx.fe.mesh import read_mesh
+    from gcms_fenicsx.fe.nodal_gradients import stress_nodes
+    body = read_mesh(mesh_file, {name: (2, tag) for name, tag in groups.items()},
+                     _world(comm))
+    return stress_nodes(body, stress, node_count, key, progress)

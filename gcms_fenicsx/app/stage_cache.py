@@ -13,7 +13,10 @@ and a content checksum:
 - the reduced model, ``reduced.h5``: key ``input_hash`` over REDUCED_MODEL_TABLES, and the
   elastic law where ``[scene] elasticity = "svk"`` adds its coefficients
   (``config.plan.CacheKeys``), which are computed on the modes' own mesh; a model with
-  them also serves a co-rotated scene (the co-rotated law ignores them).
+  them also serves a co-rotated scene (the co-rotated law ignores them);
+- the stress modes' mesh part, ``stress_modes.h5`` (``files.stress_nodes``), when the scene
+  asks for stresses: key the mesh's and the requested nodes (``config.plan.stress_key``), so
+  asking for stresses later forms only it, on the cached mesh.
 
 Every command writes ``cache.json``, the SHA-256 of each cached file's bytes (mesh.msh,
 mesh.json, modes.h5, reduced.h5), and a listed file is hashed and compared before it is
@@ -41,13 +44,14 @@ from gcms_fenicsx.config.plan import REDUCED_MODEL_TABLES, BodyPlan
 from gcms_fenicsx.files.checksums import document_intact, file_sha256
 from gcms_fenicsx.files.modes_file import ModesFileError, StoredModes, read_modes
 from gcms_fenicsx.files.reduced_model import ReducedModel, ReducedModelError, read_reduced
+from gcms_fenicsx.files.stress_nodes import StressNodes, StressNodesError, read_stress_nodes
 from gcms_fenicsx.numerics.spectrum import clusters, cut_cluster_warning
 from gcms_fenicsx.runtime.progress import Progress
 from geometry.info import MeshInfo
 
 #: The cache's manifest in --out, and the files it covers.
 MANIFEST = "cache.json"
-CACHED_FILES = ("mesh.msh", "mesh.json", "modes.h5", "reduced.h5")
+CACHED_FILES = ("mesh.msh", "mesh.json", "modes.h5", "reduced.h5", "stress_modes.h5")
 #: Files of each reusable stage, and of the stages above it that a reuse skips.
 MESH_PRODUCT = ("mesh.msh", "mesh.json")
 MODES_PRODUCT = (*MESH_PRODUCT, "modes.h5")
@@ -70,14 +74,17 @@ class Reuse:
     mesh: CachedMesh | None = None
     modes: StoredModes | None = None
     reduced: ReducedModel | None = None
+    stress: StressNodes | None = None
 
     def kept(self) -> tuple[str, ...]:
         """The files of ``--out`` this plan leaves as they are."""
+        stress = ("stress_modes.h5",) if self.stress is not None else ()
         if self.reduced is not None and self.modes is None and self.mesh is None:
-            return REDUCED_PRODUCT
+            return REDUCED_PRODUCT + stress
         reused = MODES_PRODUCT if self.modes is not None else \
             MESH_PRODUCT if self.mesh is not None else ()
-        return reused + (("reduced.h5", "selection.json") if self.reduced is not None else ())
+        return reused + (("reduced.h5", "selection.json") if self.reduced is not None
+                         else ()) + stress
 
     def verified(self) -> tuple[str, ...]:
         """The cached files of ``--out`` this plan checked before reusing them: not those a
@@ -85,7 +92,8 @@ class Reuse:
         modes.h5 unread)."""
         return (("mesh.msh", "mesh.json") if self.mesh is not None else ()) + \
             (("modes.h5",) if self.modes is not None else ()) + \
-            (("reduced.h5",) if self.reduced is not None else ())
+            (("reduced.h5",) if self.reduced is not None else ()) + \
+            (("stress_modes.h5",) if self.stress is not None else ())
 
 
 def owned_files(reuse: Reuse, owns: tuple[str, ...]) -> tuple[str, ...]:
@@ -175,19 +183,24 @@ def reuse(body: BodyPlan, out: Path, upto: str, fresh: bool, progress: Progress)
                  "and the manifest is written anew")
     shapes = body.outputs.mode_shapes and upto != "mesh"
     reduced = cached_reduced(body, out, manifest, progress) if upto == "reduced" else None
-    if reduced is not None and not shapes:
-        return Reuse(reduced=reduced)
-    on_mesh = shapes or (upto == "reduced" and reduced is None and body.svk)
+    asked = upto == "reduced" and body.stress is not None
+    stress = cached_stress(body, out, manifest, progress) if asked else None
+    if reduced is not None and not shapes and (stress is not None or not asked):
+        return Reuse(reduced=reduced, stress=stress)
+    on_mesh = shapes or (upto == "reduced" and reduced is None and body.svk) or \
+        (asked and stress is None)
     modes = cached_modes(body, out, manifest, progress) if upto != "mesh" else None
     if modes is not None and not on_mesh:
-        return Reuse(modes=modes, reduced=reduced)
+        return Reuse(modes=modes, reduced=reduced, stress=stress)
     mesh = cached_mesh(body, out, manifest, progress)
-    if on_mesh and modes is not None and mesh is None:
-        why = "mode shapes are written" if shapes else "the SVK coefficients are integrated"
-        progress(f"modes: the cached modes' mesh cannot be reused, so neither can they "
-                 f"({why} on that mesh); solving again")
-        modes = None
-    return Reuse(mesh=mesh, modes=modes, reduced=reduced)
+    if on_mesh and (modes is not None or reduced is not None) and mesh is None:
+        why = "mode shapes are written" if shapes else \
+            "the SVK coefficients are integrated" if body.svk and reduced is None else \
+            "the stress modes are formed"
+        progress(f"modes: the cached modes' mesh cannot be reused, so neither can they nor the "
+                 f"reduced model ({why} on that mesh); solving again")
+        modes = reduced = None
+    return Reuse(mesh=mesh, modes=modes, reduced=reduced, stress=stress)
 
 
 def cached_mesh(body: BodyPlan, out: Path, manifest: dict[str, str] | None,
@@ -279,6 +292,27 @@ def restricted(stored: StoredModes, count: int) -> StoredModes:
         doc["warnings"] = [w for w in doc["warnings"] if "near-repeated group" not in w] + \
             ([warning] if warning else [])
     return replace(stored, basis=basis, document=doc)
+
+
+def cached_stress(body: BodyPlan, out: Path, manifest: dict[str, str] | None,
+                  progress: Progress) -> StressNodes | None:
+    """``out/stress_modes.h5`` if it was made on this study's mesh for the nodes its scene
+    asks stresses at, intact; else None (with a line saying why it is formed again)."""
+    path = out / "stress_modes.h5"
+    if not path.is_file() or \
+            not _intact(out, manifest, ("stress_modes.h5",), progress, "stress modes"):
+        return None
+    try:
+        nodes = read_stress_nodes(path)
+    except StressNodesError as exc:
+        progress(f"stress modes: {exc}; forming them again")
+        return None
+    if nodes.key != body.keys.stress:
+        progress(f"stress modes: {path} was made on another mesh or for other nodes "
+                 "([scene.outputs] stress_groups, stress_times); forming them again")
+        return None
+    progress(f"stress modes: reusing {path} ({len(nodes.requested)} nodes; inputs unchanged)")
+    return nodes
 
 
 def cached_reduced(body: BodyPlan, out: Path, manifest: dict[str, str] | None,

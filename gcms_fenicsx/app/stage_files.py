@@ -25,6 +25,7 @@ from gcms_fenicsx.files.checksums import file_sha256, sealed_document
 from gcms_fenicsx.files.modes_file import StoredModes, write_modes
 from gcms_fenicsx.files.outputs import on_rank0, write_json
 from gcms_fenicsx.files.reduced_model import ReducedModel, write_reduced
+from gcms_fenicsx.files.stress_nodes import StressNodes, write_stress_nodes
 from gcms_fenicsx.files.modal_basis import ModalBasis
 from gcms_fenicsx.runtime.progress import Progress
 
@@ -38,10 +39,11 @@ class Built:
     stages: dict[str, dict]
     basis: ModalBasis | None = None
     model: ReducedModel | None = None
+    stress: StressNodes | None = None
 
 
 #: The order of the ``stages`` block.
-STAGES = ("mesh", "modes", "mode_shapes", "reduction", "simulation")
+STAGES = ("mesh", "modes", "mode_shapes", "reduction", "stress_modes", "simulation")
 
 
 def record_stage(stages: dict[str, dict], name: str, status: str, seconds: float,
@@ -274,7 +276,41 @@ def selection_summary(report: dict) -> str:
 def build(study: StudyPlan, folder: Path, progress: Progress, comm: Any,
           reuse: stage_cache.Reuse, upto: str) -> Built:
     """Run or reuse the stages of the study's body up to ``upto`` ("mesh", "modes" or
-    "reduced") into ``folder``; the scene's groups are checked against its geometry first."""
+    "reduced") into ``folder``, with the stress modes when the scene asks for stresses; the
+    scene's groups are checked against its geometry first."""
+    built = _build(study, folder, progress, comm, reuse, upto)
+    body = study.body
+    if upto != "reduced" or body.stress is None:
+        return built
+    return replace(built, stress=_stress(body, folder, progress, comm, reuse, built))
+
+
+def _stress(body: BodyPlan, folder: Path, progress: Progress, comm: Any,
+            reuse: stage_cache.Reuse, built: Built) -> StressNodes | None:
+    """The stress modes' mesh part (rank 0): reused from ``--out``/stress_modes.h5 or formed
+    on the mesh the model was made on and written to ``folder``."""
+    if reuse.stress is not None:
+        record_stage(built.stages, "stress_modes", "reused", 0.0)
+        return reuse.stress
+    t0 = time.perf_counter()
+    mesh_file = reuse.mesh.msh_path if reuse.mesh is not None else folder / "mesh.msh"
+    nodes = comm.bcast(built.model.fields.shape[0] if comm.rank == 0 else None, root=0)
+    assert body.stress is not None
+    stress = pipeline.stress_stage(mesh_file, surface_groups(body.geometry), body.stress,
+                                   nodes, body.keys.stress, progress, comm)
+    if comm.rank == 0:
+        write_stress_nodes(folder / "stress_modes.h5", stress)
+        size = (folder / "stress_modes.h5").stat().st_size
+        record_stage(built.stages, "stress_modes", "computed", time.perf_counter() - t0,
+                     nodes=len(stress.requested), bytes=size)
+        built.texts.append(f"stress modes: {len(stress.requested)} nodes, "
+                           f"{size / 1e6:.3g} MB, {time.perf_counter() - t0:.1f} s")
+    return stress
+
+
+def _build(study: StudyPlan, folder: Path, progress: Progress, comm: Any,
+           reuse: stage_cache.Reuse, upto: str) -> Built:
+    """:func:`build` without the stress modes."""
     stages: dict[str, dict] = {}
     texts: list[str] = []
     body = study.body

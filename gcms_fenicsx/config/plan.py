@@ -7,7 +7,9 @@ A study is a list of bodies (one today) and the system's scene::
     StudyPlan ─ bodies ─ BodyPlan: geometry, mesh, material, selection, outputs,
               │                    modes (the request: a count, or a band; the attachment loads),
               │                    svk (whether reduced.h5 carries the SVK coefficients),
-              │                    keys (mesh.msh, modes.h5, reduced.h5: the caches' keys)
+              │                    keys (mesh.msh, modes.h5, reduced.h5, stress_modes.h5:
+              │                          the caches' keys),
+              │                    stress (the nodes whose stresses the scene records)
               └─ scene ── ScenePlan: the [scene], its basis kind, its static shapes' patterns,
                                      the attachment loads the run expects in the model
 
@@ -39,6 +41,7 @@ from gcms_fenicsx.config.outputs import OutputsConfig
 from gcms_fenicsx.config.scene import Scene
 from gcms_fenicsx.config.scene_band import scene_band
 from gcms_fenicsx.config.selection import SelectionConfig
+from gcms_fenicsx.config.stress_outputs import StressOutputs
 from gcms_fenicsx.config.table import ConfigError
 
 #: The tables a reduced model depends on: its input hash, and the key of its cache.
@@ -62,6 +65,7 @@ class CacheKeys:
     modes: str
     reduced: str
     serving: tuple[str, ...]
+    stress: str = ""
 
 
 @dataclass(frozen=True)
@@ -77,6 +81,7 @@ class BodyPlan:
     outputs: OutputsConfig
     svk: bool
     keys: CacheKeys
+    stress: StressOutputs | None = None
 
     def digest(self, *tables: str) -> str:
         """SHA-256 of the named tables as this plan resolved them (the modes request with its
@@ -163,9 +168,21 @@ def cache_keys(body: BodyPlan) -> CacheKeys:
         accuracy["attachment"] = [asdict(load) for load in body.modes.attachment]
     modes = hashlib.sha256(json.dumps([body.digest("geometry", "mesh", "material"),
                                        accuracy]).encode()).hexdigest()
-    return CacheKeys(mesh=body.digest(*MESH_TABLES), modes=modes,
-                     reduced=with_svk if body.svk else reduced,
-                     serving=(with_svk,) if body.svk else (reduced, with_svk))
+    mesh = body.digest(*MESH_TABLES)
+    return CacheKeys(mesh=mesh, modes=modes, reduced=with_svk if body.svk else reduced,
+                     serving=(with_svk,) if body.svk else (reduced, with_svk),
+                     stress=stress_key(mesh, body.stress))
+
+
+def stress_key(mesh_key: str, stress: StressOutputs | None) -> str:
+    """The key of the stress modes (``stress_modes.h5``): the mesh's and the nodes they cover
+    (the groups, the surface, every node when whole-body stresses are written); "" when the
+    scene asks for no stresses."""
+    if stress is None:
+        return ""
+    nodes = {"groups": sorted(stress.groups), "surface": stress.surface,
+             "whole_body": stress.whole_body}
+    return hashlib.sha256(json.dumps([mesh_key, "stress", nodes]).encode()).hexdigest()
 
 
 def scene_plan(scene: Scene | None, basis: BasisConfig,
@@ -191,6 +208,7 @@ def plan_study(source: str, geometry: BeamParams | CrankshaftParams, mesh: MeshP
     attachment = attachment_loads(basis, scene)
     body = BodyPlan(name="body", geometry=geometry, mesh=mesh, material=material,
                     modes=modes_request(modes, scene, attachment), selection=selection,
-                    outputs=outputs, svk=needs_svk(scene), keys=CacheKeys("", "", "", ()))
+                    outputs=outputs, svk=needs_svk(scene), keys=CacheKeys("", "", "", ()),
+                    stress=scene.outputs.stress if scene is not None else None)
     body = replace(body, keys=cache_keys(body))
     return StudyPlan(source=source, bodies=(body,), scene=scene_plan(scene, basis, attachment))

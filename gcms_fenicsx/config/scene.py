@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from typing import Any, Iterable, Mapping
 
 from gcms_fenicsx.runtime.errors import SceneError
+from gcms_fenicsx.config.stress_outputs import StressOutputs, stress_outputs
 from gcms_fenicsx.config.table import ConfigError, Table
 
 JOINT_TYPES = ("spherical", "revolute", "fixed")
@@ -161,6 +162,7 @@ class Outputs:
     constraint_forces: bool = True
     coordinates: bool = False
     field_times: tuple[float, ...] = ()
+    stress: StressOutputs | None = None
 
 
 @dataclass(frozen=True)
@@ -205,7 +207,9 @@ class Scene:
         known = set(known)
         uses = ([(f"joints[{i}] ({j.name})", j.group) for i, j in enumerate(self.joints)]
                 + [(f"loads[{i}] ({ld.name})", ld.group) for i, ld in enumerate(self.loads)]
-                + [("outputs.groups", g) for g in self.outputs.groups])
+                + [("outputs.groups", g) for g in self.outputs.groups]
+                + [("outputs.stress_groups", g) for g in (self.outputs.stress.groups
+                                                          if self.outputs.stress else ())])
         for where, name in uses:
             if name not in known:
                 listed = ", ".join(sorted(known)) or "(none)"
@@ -326,7 +330,8 @@ def parse_scene(raw: Mapping[str, Any] | None) -> Scene | None:
     outputs = Outputs(groups=tuple(dict.fromkeys(groups)), every=o.integer("every", 1, low=1),
                       energy=o.boolean("energy", True),
                       constraint_forces=o.boolean("constraint_forces", True),
-                      coordinates=o.boolean("coordinates", False), field_times=field_times)
+                      coordinates=o.boolean("coordinates", False), field_times=field_times,
+                      stress=stress_outputs(o, end))
     o.finish()
 
     elasticity = t.choice("elasticity", ELASTICITIES, "corotated")

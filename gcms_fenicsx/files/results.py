@@ -13,7 +13,10 @@ File layout (schema 2): root attributes ``schema_version``, ``complete`` (bool),
 ``.../velocity``; ``/constraints/multipliers`` (one column per row, described by the
 ``rows`` attribute); ``/coordinates/q``, ``/coordinates/v`` when recorded;
 ``/fields/time``, ``/fields/displacement`` (times × nodes × 3) and ``/fields/nodes_m``
-when requested. Every time series has one row per recorded step. Every dataset carries the
+when requested; ``/stress/...`` when the scene asks for stresses (``dynamics.run.
+stress_recovery``: the time series ``/stress/von_mises`` and ``/stress/groups/<name>/...``,
+and ``/stress/nodes``, ``/stress/node_index``, ``/stress/peak_von_mises``,
+``/stress/peak_time``, ``/stress/groups/<name>/nodes``). Every time series has one row per recorded step. Every dataset carries the
 SHA-256 of its contents and the root the SHA-256 of its attributes (``files.versioned.seal``;
 the streamed datasets are hashed as their rows are written, nothing is read back). Schema 1
 (before checksums) is still read.
@@ -105,6 +108,7 @@ class Trajectory:
     field_time: np.ndarray = field(default_factory=lambda: np.zeros(0))
     displacement: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3)))
     nodes_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    stress: dict[str, np.ndarray] = field(default_factory=dict)   # by dataset name
     complete: bool = True
     message: str = ""
     model_hash: str = ""
@@ -140,7 +144,9 @@ class Trajectory:
         return cls(time=series["time"], newton_iterations=series["newton_iterations"],
                    groups=nested["groups"], energy=nested["energy"],
                    momentum=nested["momentum"], multipliers=series[MULTIPLIERS],
-                   rows=info.rows, coordinates=nested["coordinates"], complete=info.complete,
+                   rows=info.rows, coordinates=nested["coordinates"],
+                   stress={n: a for n, a in series.items() if n.startswith("stress/")},
+                   complete=info.complete,
                    message=info.message, model_hash=info.model_hash, scene=info.scene,
                    schema_version=schema_version)
 
@@ -160,6 +166,8 @@ class Sink(Protocol):
 
     def snapshot(self, t: float, displacement: np.ndarray) -> None: ...
 
+    def put(self, name: str, data: np.ndarray) -> None: ...
+
     def close(self, info: RunInfo) -> Trajectory | None: ...
 
 
@@ -173,6 +181,7 @@ class MemorySink:
         self.filled = 0
         self.nodes_m = nodes_m
         self.snapshots: list[tuple[float, np.ndarray]] = []
+        self.datasets: dict[str, np.ndarray] = {}
 
     def append(self, block: Mapping[str, np.ndarray]) -> None:
         k = len(block["time"])
@@ -183,6 +192,9 @@ class MemorySink:
     def snapshot(self, t: float, displacement: np.ndarray) -> None:
         self.snapshots.append((t, displacement))
 
+    def put(self, name: str, data: np.ndarray) -> None:
+        self.datasets[name] = np.asarray(data)
+
     def close(self, info: RunInfo) -> Trajectory:
         traj = Trajectory.from_series({n: a[:self.filled] for n, a in self.arrays.items()}, info)
         if self.nodes_m is not None:
@@ -190,6 +202,7 @@ class MemorySink:
             traj.displacement = np.array([d for _, d in self.snapshots]).reshape(
                 -1, len(self.nodes_m), 3)
             traj.nodes_m = self.nodes_m
+        traj.stress.update(self.datasets)
         return traj
 
 
@@ -244,6 +257,12 @@ class ResultsWriter:
             self.field_digests[name].update(data)
         self.snapshots += 1
 
+    def put(self, name: str, data: np.ndarray) -> None:
+        """A dataset that is not a time series, written whole."""
+        data = np.ascontiguousarray(data)
+        self.f.create_dataset(name, data=data)
+        self.sealed[f"/{name}"] = dataset_digest(data)
+
     def close(self, info: RunInfo) -> None:
         f = self.f
         for s in self.layout:
@@ -274,6 +293,8 @@ def write_results(path: str | Path, traj: Trajectory) -> None:
             writer.append({n: a[start:start + block] for n, a in series.items()})
         for t, d in zip(traj.field_time, traj.displacement):
             writer.snapshot(float(t), d)
+        for name, data in traj.stress.items():
+            writer.put(name, data)
         writer.close(info)
 
 
@@ -332,4 +353,7 @@ def read_results(path: str | Path) -> Trajectory:
             traj.field_time = f["fields/time"][()]
             traj.displacement = f["fields/displacement"][()]
             traj.nodes_m = f["fields/nodes_m"][()]
+        if "stress" in f:
+            f["stress"].visititems(lambda name, item: traj.stress.__setitem__(
+                f"stress/{name}", item[()]) if isinstance(item, h5py.Dataset) else None)
         return traj

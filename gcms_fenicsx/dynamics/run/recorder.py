@@ -28,6 +28,7 @@ from typing import NamedTuple
 import numpy as np
 
 from gcms_fenicsx.dynamics.bodies.body import Body
+from gcms_fenicsx.dynamics.run.stress_recovery import StressRecovery
 from gcms_fenicsx.dynamics.stepping.state import State, StepInfo
 from gcms_fenicsx.dynamics.constraints.joints import Constraints
 from gcms_fenicsx.dynamics.bodies.loads import ExternalForces
@@ -47,6 +48,7 @@ class RecordPlan:
     snapshot_steps: frozenset[int]
     nodes: int
     block_rows: int
+    stress_steps: frozenset[int] = frozenset()
 
     @property
     def row_bytes(self) -> int:
@@ -73,17 +75,23 @@ def recorded_rows(steps: int, every: int) -> int:
     return steps // every + 1 + (1 if steps % every else 0)
 
 
-def record_plan(body: Body, constraints: Constraints, scene: Scene) -> RecordPlan:
+def record_plan(body: Body, constraints: Constraints, scene: Scene,
+                stress: tuple[Series, ...] = ()) -> RecordPlan:
     """The plan of what ``scene`` records on ``body`` (the full basis) with
-    ``constraints``."""
+    ``constraints``, and the ``stress`` series (``stress_recovery``) if it asks for them."""
     out, steps = scene.outputs, scene.steps
     layout = series_layout(out.groups, out.energy,
                            constraints.count if out.constraint_forces else 0,
-                           body.dofs if out.coordinates else 0)
+                           body.dofs if out.coordinates else 0) + stress
     rows = recorded_rows(steps, out.every)
-    snapshots = frozenset(min(steps, int(round(t / scene.time_step_s))) for t in out.field_times)
-    return RecordPlan(layout=layout, steps=steps, rows=rows, snapshot_steps=snapshots,
-                      nodes=len(body.nodes_m), block_rows=block_rows(layout, rows))
+
+    def nearest(times: tuple[float, ...]) -> frozenset[int]:
+        return frozenset(min(steps, int(round(t / scene.time_step_s))) for t in times)
+
+    return RecordPlan(layout=layout, steps=steps, rows=rows,
+                      snapshot_steps=nearest(out.field_times), nodes=len(body.nodes_m),
+                      block_rows=block_rows(layout, rows),
+                      stress_steps=nearest(out.stress.times) if out.stress else frozenset())
 
 
 #: The relative energy drift is measured against at least the kinetic energy of the whole
@@ -186,13 +194,16 @@ class Recorder:
     ``body``'s, taken at B p (so results.h5 reads with reduced.h5 in either basis; a body on
     static shapes in the full basis is its own model's, ``static_shapes.shape_model``, and so
     are its coordinates).
+
+    ``stress``: the run's stress recovery (``stress_recovery``), fed every block of rows and
+    the states of ``plan.stress_steps``.
     """
 
     def __init__(self, body: Body, constraints: Constraints, forces: ExternalForces,
                  outputs: Outputs, plan: RecordPlan, time_step_s: float, sink: Sink,
-                 lift: np.ndarray | None = None) -> None:
+                 lift: np.ndarray | None = None, stress: StressRecovery | None = None) -> None:
         self.body, self.c, self.forces, self.out = body, constraints, forces, outputs
-        self.plan, self.sink, self.lift = plan, sink, lift
+        self.plan, self.sink, self.lift, self.stress = plan, sink, lift, stress
         n = body.dofs if lift is None else lift.shape[1]
         m = constraints.count if outputs.constraint_forces else 0
         rows = max(1, min(plan.block_rows, BLOCK_BYTES // (8 * (2 * n + m + 6))))
@@ -230,10 +241,15 @@ class Recorder:
             self.record(s, info)
 
     def snapshot(self, index: int, s: State) -> None:
-        """The field snapshot of step ``index``, if the plan asks for one."""
-        if index in self.plan.snapshot_steps:
+        """The field snapshot and the whole body's stress of step ``index``, if the plan
+        asks for them."""
+        fields, stress = index in self.plan.snapshot_steps, index in self.plan.stress_steps
+        if fields or (stress and self.stress is not None):
             q = s.q if self.lift is None else self.lift.dot(s.q)
-            self.sink.snapshot(s.t, self.body.displacement(q))
+            if fields:
+                self.sink.snapshot(s.t, self.body.displacement(q))
+            if stress and self.stress is not None:
+                self.stress.snapshot(s.t, q)
 
     def record(self, s: State, info: StepInfo) -> None:
         """Copy the raw row of a state already accounted for by :meth:`step`."""
@@ -273,6 +289,9 @@ class Recorder:
         if out.coordinates:
             qv = raw.qv[:k] if self.lift is None else raw.qv[:k].dot(self.lift.T)
             block["coordinates/q"], block["coordinates/v"] = qv[:, 0], qv[:, 1]
+        if self.stress is not None:
+            q = raw.qv[:k, 0] if self.lift is None else raw.qv[:k, 0].dot(self.lift.T)
+            block.update(self.stress.block(block["time"], q.reshape(k, -1, 3)))
         if raw.energy:
             elastic, w = scalars[:, 2].copy(), scalars[:, 3:].copy()
             gravity = self.forces.gravity_potential(raw.qv[:k, 0])

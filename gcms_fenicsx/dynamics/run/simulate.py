@@ -39,8 +39,11 @@ from gcms_fenicsx.dynamics.stepping.state import Elastic, State, StepInfo
 from gcms_fenicsx.dynamics.constraints.joints import Constraints, build_constraints
 from gcms_fenicsx.dynamics.bodies.loads import ExternalForces, external_forces
 from gcms_fenicsx.dynamics.run.recorder import Extremes, Recorder, RecordPlan, record_plan
-from gcms_fenicsx.files.results import (MemorySink, ResultsWriter, RunInfo, Sink,
-                                           Trajectory)
+from gcms_fenicsx.dynamics.run.stress_recovery import StressRecovery, StressSetup, stress_setup
+from gcms_fenicsx.files.results import (MemorySink, ResultsWriter, RunInfo, Series, Sink,
+                                        Trajectory)
+from gcms_fenicsx.files.stress_fields import write_stress_fields
+from gcms_fenicsx.files.stress_nodes import StressNodes
 from gcms_fenicsx.numerics.rotation import InvertedBodyError
 from gcms_fenicsx.dynamics.bodies.rotor import RotorBody
 from gcms_fenicsx.dynamics.bases.run_basis import in_basis, rotor_summary
@@ -71,8 +74,8 @@ def modal_history(body: Body, q: np.ndarray, mode: int) -> np.ndarray:
 def simulate_body(body: Body | RotorBody, scene: Scene, *,
                   factorize: Factorize = dense_factorization,
                   elastic: Elastic | None = None, progress: Progress = quiet,
-                  model_hash: str = "", kkt_solve: KKTSolve = dense_kkt_solve
-                  ) -> tuple[Trajectory, dict]:
+                  model_hash: str = "", kkt_solve: KKTSolve = dense_kkt_solve,
+                  stress: StressSetup | None = None) -> tuple[Trajectory, dict]:
     """Run ``scene`` on ``body``: the recorded trajectory (in memory) and the summary
     (``summary.json``). ``factorize`` and ``elastic`` as in
     :class:`~gcms_fenicsx.dynamics.stepping.integrator.GeneralizedAlpha`; ``elastic`` is given exactly
@@ -110,27 +113,34 @@ def elastic_law(model: ReducedModel, body: Body, scene: Scene) -> Elastic | None
 
 
 def simulate(model: ReducedModel, scene: Scene, progress: Progress = quiet, basis: str = "full",
-             attachment: tuple[Any, ...] = (), static: Any = None
-             ) -> tuple[Trajectory, dict]:
+             attachment: tuple[Any, ...] = (), static: Any = None,
+             stress_nodes: StressNodes | None = None) -> tuple[Trajectory, dict]:
     """Run ``scene`` on an exported reduced model, keeping the results in memory; ``basis``,
-    ``attachment`` and ``static`` as in ``run_basis.in_basis``."""
+    ``attachment`` and ``static`` as in ``run_basis.in_basis``, ``stress_nodes`` the stress
+    modes' mesh part when the scene asks for stresses."""
     body = body_from_reduced(model)
     elastic = elastic_law(model, body, scene)
     run_body = in_basis(model, body, scene, basis, attachment, progress, static)
     traj, summary = simulate_body(run_body, scene, elastic=elastic, progress=progress,
-                                  model_hash=model.input_hash)
+                                  model_hash=model.input_hash,
+                                  stress=stress_setup(model, scene, stress_nodes))
     return traj, dict(summary, **shapes_summary(static))
 
 
 def simulate_to_file(model: ReducedModel, scene: Scene, path: Path, progress: Progress = quiet,
                      basis: str = "full", attachment: tuple[AttachmentLoad, ...] = (),
-                     static: ScenePatterns | None = None) -> dict:
+                     static: ScenePatterns | None = None,
+                     stress_nodes: StressNodes | None = None) -> dict:
     """Run ``scene`` on an exported reduced model, streaming the results into ``path``
     (a temporary file beside it, renamed when the run ends, complete or not); the summary.
-    ``basis``, ``attachment`` and ``static`` as in ``run_basis.in_basis``."""
+    ``basis``, ``attachment`` and ``static`` as in ``run_basis.in_basis``; with
+    ``stress_nodes`` (a scene asking for stresses) the stresses are recovered, and the
+    whole-body ones written beside ``path`` (``stress_fields``)."""
     body = body_from_reduced(model)
     elastic = elastic_law(model, body, scene)
     run_body = in_basis(model, body, scene, basis, attachment, progress, static)
+    setup = stress_setup(model, scene, stress_nodes)
+    recovery = StressRecovery(setup, _full(run_body), scene.elasticity) if setup else None
     with atomic_file(path) as tmp, created(tmp) as f:
         def open_sink(plan: RecordPlan) -> Sink:
             return ResultsWriter(f, plan.layout, plan.block_rows,
@@ -138,7 +148,10 @@ def simulate_to_file(model: ReducedModel, scene: Scene, path: Path, progress: Pr
 
         summary, _ = _run(run_body, scene, open_sink, disk_capacity(tmp.parent),
                           factorize=dense_factorization, elastic=elastic, progress=progress,
-                          model_hash=model.input_hash)
+                          model_hash=model.input_hash, stress=recovery)
+    if recovery is not None and recovery.fields:
+        write_stress_fields(path.parent, _full(run_body).nodes_m, setup.nodes.cells,
+                            recovery.fields)
     return dict(summary, **shapes_summary(static))
 
 
@@ -181,8 +194,8 @@ def _full(body: Body | RotorBody) -> Body:
 
 def _run(body: Body | RotorBody, scene: Scene, open_sink: OpenSink, capacity: Capacity, *,
          factorize: Factorize, elastic: Elastic | None, progress: Progress,
-         model_hash: str, kkt_solve: KKTSolve = dense_kkt_solve
-         ) -> tuple[dict, Trajectory | None]:
+         model_hash: str, kkt_solve: KKTSolve = dense_kkt_solve,
+         stress: StressRecovery | None = None) -> tuple[dict, Trajectory | None]:
     """Set up, step, record into the sink ``open_sink`` gives: the summary and what the sink
     returns when closed."""
     full = _full(body)
@@ -193,30 +206,35 @@ def _run(body: Body | RotorBody, scene: Scene, open_sink: OpenSink, capacity: Ca
                             "coefficients)" if elastic is None else
                             "runs the co-rotated law, and another elastic law was given"))
     t_setup = time.perf_counter()
-    run = prepare_run(body, scene, capacity, factorize, elastic, progress, kkt_solve)
+    run = prepare_run(body, scene, capacity, factorize, elastic, progress, kkt_solve,
+                      stress.layout() if stress else ())
     sink = open_sink(run.plan)
     recorder = Recorder(full, run.constraints, run.forces, scene.outputs, run.plan,
                         scene.time_step_s, sink,
-                        body.coordinates if isinstance(body, RotorBody) else None)
+                        body.coordinates if isinstance(body, RotorBody) else None, stress)
     recorder.step(0, run.state, run.info)
     setup_s = time.perf_counter() - t_setup
     kernel, stepper = warm_up(run.kernel, run.stepper, recorder, run.state, progress,
                               scene.solver.kernel)
     stepped = march(Start(run.integrator, run.state, run.info, run.plan.steps,
-                          run.plan.snapshot_steps, scene.end_time_s), recorder, progress, stepper)
+                          run.plan.snapshot_steps | run.plan.stress_steps, scene.end_time_s),
+                    recorder, progress, stepper)
     if not stepped.complete and recorder.last_time != stepped.state.t:
         recorder.record(stepped.state, stepped.info)   # the last converged state
     recorder.flush()
+    for name, data in (stress.datasets() if stress else {}).items():
+        sink.put(name, data)
     rows = finite_json([asdict(r) for r in run.constraints.rows]) \
         if scene.outputs.constraint_forces and run.constraints.count else []  # as JSON reads
     traj = sink.close(RunInfo(stepped.complete, stepped.message, model_hash, asdict(scene), rows))
-    return _summary(body, scene, run, stepped, recorder.extremes, setup_s, model_hash,
-                    kernel), traj
+    summary = _summary(body, scene, run, stepped, recorder.extremes, setup_s, model_hash, kernel)
+    return dict(summary, stress=finite_json(stress.summary()) if stress else None), traj
 
 
 def prepare_run(body: Body | RotorBody, scene: Scene, capacity: Capacity,
                 factorize: Factorize = dense_factorization, elastic: Elastic | None = None,
-                progress: Progress = quiet, kkt_solve: KKTSolve = dense_kkt_solve) -> Prepared:
+                progress: Progress = quiet, kkt_solve: KKTSolve = dense_kkt_solve,
+                stress: tuple[Series, ...] = ()) -> Prepared:
     """Initial coordinates, Mr⁻¹, the independent joint rows, the results' budget (refused
     before anything is allocated if over ``capacity``), the stepper and the initial state.
     A rotor body starts from the rotor coordinates nearest the full basis's initial state
@@ -243,7 +261,7 @@ def prepare_run(body: Body | RotorBody, scene: Scene, capacity: Capacity,
     if constraints.dropped:
         progress(f"joints: {len(constraints.dropped)} constraint rows dropped, implied by the "
                  f"rows of earlier joints: {_rows_text(constraints)}")
-    plan = record_plan(full, constraints, scene)
+    plan = record_plan(full, constraints, scene, stress)
     check_capacity(plan, capacity, scene)
     progress(f"simulate: {plan.steps} steps of {scene.time_step_s:g} s, {body.dofs} "
              f"coordinates, {constraints.count} constraint rows; {plan.rows} recorded rows and "

@@ -19,6 +19,7 @@ from gcms_fenicsx.files.modal_basis import holds_attachment_modes
 from gcms_fenicsx.files.names import SIMULATION_FILES
 from gcms_fenicsx.files.outputs import staged_output, write_json
 from gcms_fenicsx.files.reduced_model import ReducedModel, read_reduced
+from gcms_fenicsx.files.stress_nodes import StressNodes, read_stress_nodes
 from gcms_fenicsx.runtime.errors import ComputationFailed
 from gcms_fenicsx.runtime.progress import Progress, quiet
 
@@ -28,15 +29,16 @@ class SimulationIncomplete(ComputationFailed):
 
 
 def run_scene(plan: ScenePlan, model: ReducedModel, folder: Path,
-              progress: Progress = quiet) -> dict:
-    """The scene of ``plan`` on ``model``, its results streamed into folder/results.h5; the
-    summary (``plots`` empty: pictures are drawn, where they are, after publication)."""
+              progress: Progress = quiet, stress: StressNodes | None = None) -> dict:
+    """The scene of ``plan`` on ``model``, its results streamed into folder/results.h5 (and
+    stress.xdmf for whole-body stresses, with the stress modes ``stress``); the summary
+    (``plots`` empty: pictures are drawn, where they are, after publication)."""
     if plan.shapes is not None and not plan.attachment:
         progress('note: [basis] shapes = "static" without attachment modes ([basis] attachment '
                  f'= "{plan.attachment_setting}"): the static shapes are solved in the span of '
                  "the eigenmodes, not exactly")
     summary = simulate_to_file(model, plan.scene, folder / "results.h5", progress, plan.basis,
-                               plan.attachment, plan.shapes)
+                               plan.attachment, plan.shapes, stress)
     return dict(summary, plots=[])
 
 
@@ -55,6 +57,18 @@ def simulation_text(summary: dict) -> str:
     ])
 
 
+def stress_text(summary: dict) -> list[str]:
+    """The hot spot's line, when the run recovered stresses."""
+    s = summary.get("stress")
+    if not s or s.get("peak_von_mises_pa") is None:
+        return []
+    x, y, z = s["peak_position_m"]
+    return [f"  peak von Mises stress {s['peak_von_mises_pa'] / 1e6:.4g} MPa at node "
+            f"{s['peak_node']} ({s['peak_group']}, at ({x:.4g}, {y:.4g}, {z:.4g}) m), "
+            f"t = {s['peak_time_s']:.4g} s ({s['nodes']} nodes recovered, "
+            f"{s['recovery_per_recorded_step_ms']:.3g} ms per recorded step)"]
+
+
 def _number(value: float | None, spec: str) -> str:
     return "n/a" if value is None else format(value, spec)
 
@@ -62,7 +76,7 @@ def _number(value: float | None, spec: str) -> str:
 def finished(texts: list[str], summary: dict) -> str:
     """The command's text with the simulation's summary; SimulationIncomplete carrying it when
     the run stopped early (its files are written by then)."""
-    text = "\n".join([*texts, simulation_text(summary)])
+    text = "\n".join([*texts, simulation_text(summary), *stress_text(summary)])
     if not summary["complete"]:
         raise SimulationIncomplete(text)
     return text
@@ -92,6 +106,10 @@ def simulate_model(reduced: Path, config: Path, out: Path, progress: Progress = 
     if plan.scene is None:
         raise ConfigError.missing("[scene]", f"required in {config}")
     model = read_reduced(reduced)
+    stress = None
+    if plan.scene.scene.outputs.stress is not None:
+        beside = Path(reduced).parent / "stress_modes.h5"
+        stress = read_stress_nodes(beside) if beside.is_file() else None
     if not model.checksummed:
         progress(f"note: {reduced} was written before content checksums (schema "
                  f"{model.schema_version}); its contents cannot be verified")
@@ -99,6 +117,6 @@ def simulate_model(reduced: Path, config: Path, out: Path, progress: Progress = 
     if other:
         progress(f"note: {reduced} {other}; it is simulated as it is")
     with staged_output(out, owns=SIMULATION_FILES) as folder:
-        summary = run_scene(plan.scene, model, folder, progress)
+        summary = run_scene(plan.scene, model, folder, progress, stress)
         write_json(folder / "summary.json", summary)
     return finished([], summary)
