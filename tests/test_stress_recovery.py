@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from beams import HEIGHT_Z, LENGTH, WIDTH_Y, beam_study
-from conftest import gcms
+from conftest import gcms, gcms_reduce, mpirun
 from gcms_fenicsx.app import pipeline
 from gcms_fenicsx.config.stress_outputs import StressOutputs
 from gcms_fenicsx.config.study import parse_config
@@ -25,6 +25,7 @@ from gcms_fenicsx.dynamics.run.stress_recovery import corotated_stress, von_mise
 from gcms_fenicsx.fe.nodal_gradients import stress_nodes
 from gcms_fenicsx.fe.node_groups import group_weights
 from gcms_fenicsx.fe.node_order import input_node_indices
+from gcms_fenicsx.files.stress_nodes import read_stress_nodes
 from gcms_fenicsx.numerics.rotation import polar
 from gcms_fenicsx.references.full_order import full_held_static, full_order_body
 
@@ -166,3 +167,42 @@ def test_stress_modes_only_when_asked_reused_and_formed_alone_later(tmp_path):
     assert result.returncode == 0, result.stderr
     stages = json.loads((out / "summary.json").read_text())["stages"]
     assert stages["stress_modes"]["status"] == "reused"
+
+
+def _dense(nodes) -> np.ndarray:
+    g = nodes.gradient
+    out = np.zeros(g.shape)
+    for r in range(g.shape[0]):
+        out[r, g.indices[g.indptr[r]:g.indptr[r + 1]]] += g.data[g.indptr[r]:g.indptr[r + 1]]
+    return out
+
+
+@pytest.mark.slow
+def test_stress_modes_on_two_ranks_are_the_serial_ones(tmp_path):
+    """The stress modes' mesh part of the 12 mm P2 test beam — every surface node with the
+    whole body's operator and cells, and the nodes of two groups — formed on one and on two
+    ranks: the same nodes and groups, the same cells (in another order), and the operator B
+    equal to round-off (bound 1e-12 of its largest entry: the same cells' rows summed in
+    another order)."""
+    out = tmp_path / "out"
+    gcms_reduce(_text().replace("[mesh]\nsize = 0.012", "[mesh]\nsize = 0.012\norder = 2"),
+                tmp_path / "study.toml", out)
+    results = {}
+    for ranks in (1, 2):
+        folder = tmp_path / f"ranks{ranks}"
+        folder.mkdir()
+        run = mpirun(["tests/mpi_stress_nodes.py", str(out), str(folder)], n=ranks)
+        assert run.returncode == 0, run.stderr
+        results[ranks] = {name: read_stress_nodes(folder / f"{name}.h5")
+                          for name in ("surface", "groups")}
+    for name in ("surface", "groups"):
+        one, two = results[1][name], results[2][name]
+        np.testing.assert_array_equal(one.nodes, two.nodes)
+        np.testing.assert_array_equal(one.gradient_nodes, two.gradient_nodes)
+        assert one.groups.keys() == two.groups.keys()
+        for group in one.groups:
+            np.testing.assert_array_equal(one.groups[group], two.groups[group])
+        B1, B2 = _dense(one), _dense(two)
+        assert np.abs(B1 - B2).max() <= 1e-12 * np.abs(B1).max()
+        assert sorted(map(tuple, one.cells)) == sorted(map(tuple, two.cells))
+    assert len(results[1]["surface"].cells) > 0 and len(results[1]["groups"].cells) == 0

@@ -1,4 +1,6 @@
-"""Pictures of a simulation for a person to look at: a sensor's trajectory and the energies.
+"""Pictures of a simulation for a person to look at: a sensor's trajectory, the energies, the
+joints' forces and, when the scene asks for stresses, the body coloured by its peak von Mises
+stress with the hot spot marked (``stress.png``) and the hot spot's stress over time.
 
 They are drawn from ``results.h5`` and read only what they show — the time, the first output
 group, the energies and the multipliers — and of a long run only every k-th recorded row, at
@@ -29,6 +31,32 @@ PLOT_ROWS = 20_000
 
 
 @dataclass(frozen=True)
+class StressPlot:
+    """The recorded nodes (undeformed, k × 3), their peak von Mises stresses (Pa) and times,
+    the hot spot (the node of the largest) with its group and its stress at the rows shown."""
+
+    nodes: np.ndarray
+    peak: np.ndarray
+    peak_time: np.ndarray
+    hot: int
+    group: str
+    series: np.ndarray
+
+
+def _stress_plot(f, stride: int) -> StressPlot | None:
+    """The stress pictures' data of an open results file, None without stresses."""
+    if "stress" not in f:
+        return None
+    peak = f["stress/peak_von_mises"][()]
+    hot = int(np.argmax(peak))
+    groups = f["stress/groups"]
+    group = next((g for g in groups if hot in groups[g]["nodes"][()]), "")
+    return StressPlot(nodes=f["stress/nodes"][()], peak=peak,
+                      peak_time=f["stress/peak_time"][()], hot=hot, group=group,
+                      series=f["stress/von_mises"][::stride, hot].astype(float))
+
+
+@dataclass(frozen=True)
 class PlotData:
     """What the pictures show, read from results.h5 (every ``stride``-th recorded row)."""
 
@@ -40,6 +68,7 @@ class PlotData:
     rows: list[dict]
     complete: bool
     stride: int
+    stress: StressPlot | None = None
 
     def joint_force(self, joint: str) -> np.ndarray:
         """The force (N) ``joint`` exerts on the body, at the rows shown."""
@@ -65,7 +94,7 @@ def read_plot_data(path: Path, max_rows: int = PLOT_ROWS) -> PlotData:
                              else np.zeros((0, 3))),
             energy={n: f[f"energy/{n}"][::stride] for n in f.get("energy", {})},
             multipliers=f[MULTIPLIERS][::stride], rows=json.loads(f.attrs["rows"]),
-            complete=bool(f.attrs["complete"]), stride=stride)
+            complete=bool(f.attrs["complete"]), stride=stride, stress=_stress_plot(f, stride))
 
 
 def _pyplot():
@@ -143,8 +172,9 @@ def plot_joints(traj: PlotData, path: Path) -> None:
     plt = _pyplot()
     joints = list(dict.fromkeys(r["joint"] for r in traj.rows if r["kind"] == "force"))
     moments = [(i, r) for i, r in enumerate(traj.rows) if r["unit"] == "N*m"]
-    fig, axes = plt.subplots(2 if moments else 1, 1, figsize=(9, 6.5 if moments else 3.8),
-                             sharex=True, squeeze=False)
+    panels = 1 + bool(moments) + (traj.stress is not None)
+    fig, axes = plt.subplots(panels, 1, figsize=(9, 3.8 + 2.9 * (panels - 1)), sharex=True,
+                             squeeze=False)
     top = axes[0, 0]
     for name in joints:
         top.plot(traj.time, np.linalg.norm(traj.joint_force(name), axis=1), label=name)
@@ -161,7 +191,45 @@ def plot_joints(traj: PlotData, path: Path) -> None:
         bottom.set_ylabel("moment on body [N·m]")
         bottom.legend(loc="best", fontsize=7)
         bottom.grid(alpha=0.3)
+    if traj.stress is not None:
+        _hot_spot_series(axes[-1, 0], traj)
     axes[-1, 0].set_xlabel("time [s]")
+    _save(plt, fig, path)
+
+
+def _hot_spot_series(ax, traj: PlotData) -> None:
+    """The hot spot's von Mises stress against time on ``ax``."""
+    s = traj.stress
+    assert s is not None
+    x, y, z = s.nodes[s.hot]
+    ax.plot(traj.time, s.series / 1e6, color="C3")
+    ax.set_ylabel("von Mises at hot spot [MPa]")
+    ax.set_title(f"hot spot: {s.group} node at ({x:.4g}, {y:.4g}, {z:.4g}) m", fontsize=9)
+    ax.grid(alpha=0.3)
+
+
+def plot_stress(traj: PlotData, path: Path) -> None:
+    """The recorded nodes coloured by their peak von Mises stress over the run, the hot spot
+    marked, and its stress against time."""
+    plt = _pyplot()
+    s = traj.stress
+    assert s is not None
+    fig = plt.figure(figsize=(12, 5))
+    body = fig.add_subplot(1, 2, 1, projection="3d")
+    shown = body.scatter(*s.nodes.T, c=s.peak / 1e6, s=2, cmap="inferno", depthshade=False)
+    x, y, z = s.nodes[s.hot]
+    body.plot([x], [y], [z], marker="*", ms=20, mfc="cyan", mec="k", ls="none", zorder=10,
+              label=f"hot spot: {s.peak[s.hot] / 1e6:.4g} MPa at t = {s.peak_time[s.hot]:.4g} s")
+    body.set_box_aspect(np.maximum(np.ptp(s.nodes, axis=0), 1e-9 * np.ptp(s.nodes).max()))
+    body.set_xlabel("x [m]")
+    body.set_ylabel("y [m]")
+    body.set_zlabel("z [m]")
+    body.legend(loc="upper left", fontsize=8)
+    fig.colorbar(shown, ax=body, shrink=0.7, pad=0.15, label="peak von Mises over the run [MPa]")
+    _hot_spot_series(fig.add_subplot(1, 2, 2), traj)
+    fig.axes[-1].set_xlabel("time [s]")
+    status = "" if traj.complete else "  (incomplete)"
+    fig.suptitle(f"stresses at {len(s.peak)} recorded nodes{status}{traj.note}")
     _save(plt, fig, path)
 
 
@@ -171,12 +239,13 @@ PICTURES = (
     ("trajectory.png", plot_trajectory, lambda d: d.sensor is not None),
     ("energy.png", plot_energy, lambda d: bool(d.energy)),
     ("joints.png", plot_joints, lambda d: bool(d.rows)),
+    ("stress.png", plot_stress, lambda d: d.stress is not None),
 )
 
 
 def plot_results(results: Path, folder: Path, warn: Progress = quiet) -> list[str]:
-    """trajectory.png (first output group), energy.png and joints.png of the results file
-    ``results`` into ``folder``, where the data exist; the names of those drawn. A picture
+    """trajectory.png (first output group), energy.png, joints.png and stress.png of the
+    results file ``results`` into ``folder``, where the data exist; the names of those drawn. A picture
     that cannot be drawn (or results that cannot be read for them) is a ``warn`` line naming
     it and the reason, and is not written."""
     try:

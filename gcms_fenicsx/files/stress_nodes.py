@@ -19,7 +19,7 @@ checksums (``files.versioned``). NumPy and h5py only.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -82,6 +82,17 @@ class StressNodes:
     def nodes(self) -> np.ndarray:
         """The recorded nodes' mesh-file indices (k,)."""
         return self.gradient_nodes[self.requested]
+
+    def renumbered(self, order: np.ndarray) -> StressNodes:
+        """The same nodes and operator in another numbering of the mesh's nodes, whose node j
+        is node ``order[j]`` of this one (a full-order body's: ``fe.node_order``); the
+        recorded nodes and groups keep their positions."""
+        new = np.empty_like(order)
+        new[order] = np.arange(len(order))
+        g = self.gradient
+        return replace(self, gradient_nodes=new[self.gradient_nodes],
+                       gradient=SparseRows(g.indptr, new[g.indices], g.data, g.shape),
+                       cells=new[self.cells])
 
     @property
     def nbytes(self) -> int:

@@ -81,15 +81,18 @@ def simulate_body(body: Body | RotorBody, scene: Scene, *,
     :class:`~gcms_fenicsx.dynamics.stepping.integrator.GeneralizedAlpha`; ``elastic`` is given exactly
     when the scene's ``elasticity`` is not the co-rotated law (SceneError otherwise), so the
     summary names the law that ran. ``kkt_solve`` solves the held body's statics of an
-    equilibrium start (``statics``; sparse for the full-order model)."""
+    equilibrium start (``statics``; sparse for the full-order model); with ``stress`` the
+    scene's stresses are recovered into the trajectory (``stress_recovery``; the whole-body
+    fields are not written)."""
     nodes = _full(body).nodes_m
 
     def open_sink(plan: RecordPlan) -> Sink:
         return MemorySink(plan.layout, plan.rows, nodes if plan.snapshot_steps else None)
 
+    recovery = StressRecovery(stress, _full(body), scene.elasticity) if stress else None
     summary, traj = _run(body, scene, open_sink, memory_capacity(), factorize=factorize,
                          elastic=elastic, progress=progress, model_hash=model_hash,
-                         kkt_solve=kkt_solve)
+                         kkt_solve=kkt_solve, stress=recovery)
     assert traj is not None
     return traj, summary
 
