@@ -85,13 +85,16 @@ def peaks(stress: dict, nodes: Any) -> dict:
 
 def reduced_run(raw: dict, folder: Path, end_s: float | None) -> dict:
     """One reduced model's run: its peaks, coordinates and seconds."""
-    from gcms_fenicsx.dynamics.run.simulate import simulate
+    from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
+    from gcms_fenicsx.dynamics.run.simulate import simulate_body
+    from gcms_fenicsx.dynamics.run.stress_recovery import StressSetup
 
     cfg, _, reduced, nodes = chain(raw, folder)
+    scene = stress_scene(cfg, end_s)
     t0 = time.perf_counter()
-    traj, summary = simulate(reduced, stress_scene(cfg, end_s),
-                             attachment=cfg.plan.body.modes.attachment or (),
-                             stress_nodes=nodes)
+    traj, summary = simulate_body(body_from_reduced(reduced), scene,
+                                  stress=StressSetup(nodes, cfg.material.lame,
+                                                     scene.outputs.stress))
     if not summary["complete"]:
         raise SystemExit(f"reduced run stopped: {summary['message']}")
     return dict(peaks(traj.stress, nodes), coordinates=summary["reduced_dofs"],

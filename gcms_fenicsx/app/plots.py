@@ -221,6 +221,10 @@ def plot_stress(traj: PlotData, path: Path) -> None:
     body.plot([x], [y], [z], marker="*", ms=20, mfc="cyan", mec="k", ls="none", zorder=10,
               label=f"hot spot: {s.peak[s.hot] / 1e6:.4g} MPa at t = {s.peak_time[s.hot]:.4g} s")
     body.set_box_aspect(np.maximum(np.ptp(s.nodes, axis=0), 1e-9 * np.ptp(s.nodes).max()))
+    from matplotlib.ticker import MaxNLocator
+    for axis in (body.xaxis, body.yaxis, body.zaxis):     # a slender body's short sides
+        axis.set_major_locator(MaxNLocator(3))
+    body.tick_params(labelsize=7)
     body.set_xlabel("x [m]")
     body.set_ylabel("y [m]")
     body.set_zlabel("z [m]")

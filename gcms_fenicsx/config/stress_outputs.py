@@ -50,7 +50,10 @@ def stress_outputs(o: Table, end: float) -> StressOutputs | None:
     raw = o.get("stress_groups")
     if raw == SURFACE:
         return StressOutputs(surface=True, times=times)
+    if isinstance(raw, list) and SURFACE in raw:
+        raise o.error("stress_groups", raw, f'"{SURFACE}" is not a group: write stress_groups '
+                      f'= "{SURFACE}" (a string, not in a list) for every surface node')
     if not isinstance(raw, list) or not raw or \
-            not all(isinstance(name, str) and name and name != SURFACE for name in raw):
+            not all(isinstance(name, str) and name for name in raw):
         raise o.error("stress_groups", raw, allowed)
     return StressOutputs(groups=tuple(dict.fromkeys(raw)), times=times)

@@ -43,7 +43,8 @@ from gcms_fenicsx.runtime.progress import Progress, quiet
 #: block holds 300 · 8192 doubles (20 MB) however large the mesh.
 CELLS_PER_BLOCK = 8192
 #: The basix P2 tetrahedron's local nodes in the order of VTK's (and XDMF's) Tetrahedron_10:
-#: vertices, then edges 01, 12, 02, 03, 13, 23 (basix numbers its edges 23, 13, 12, 03, 02, 01).
+#: vertices, then edges 01, 12, 02, 03, 13, 23 (basix numbers its edges 23, 13, 12, 03, 02, 01);
+#: a P1 tetrahedron's vertices are in VTK's order already.
 VTK_TET10 = np.array([0, 1, 2, 3, 9, 6, 8, 7, 5, 4])
 
 
@@ -150,7 +151,7 @@ def stress_nodes(body: BodyMesh, stress: StressOutputs, node_count: int, key: st
                  progress: Progress = quiet, comm: Any = None) -> StressNodes | None:
     """The stress modes' mesh part for ``stress``: the requested nodes by group, the operator B
     at them — at every node, with the cells (VTK order) for the whole-body fields, when
-    ``stress.whole_body`` — on rank 0 (None on the others). Collective."""
+    ``stress.whole_body`` (VTK's node order, 4 or 10 a cell) — on rank 0 (None on the others). Collective."""
     comm = body.mesh.comm if comm is None else comm
     groups = requested_nodes(body, stress, comm)
     nodes = np.unique(np.concatenate(list(groups.values())))
@@ -162,8 +163,9 @@ def stress_nodes(body: BodyMesh, stress: StressOutputs, node_count: int, key: st
     rows_of = np.full(node_count, -1, dtype=np.int64)
     rows_of[rows_nodes] = np.arange(len(rows_nodes))
     B = nodal_gradient_operator(cells, rows_of, len(rows_nodes), node_count, comm)
-    vtk = cells.nodes[:, VTK_TET10] if stress.whole_body and cells.nodes.shape[1] == 10 \
-        else cells.nodes[:, :0]
+    width = cells.nodes.shape[1]
+    vtk = (cells.nodes[:, VTK_TET10] if width == 10 else cells.nodes) if stress.whole_body \
+        else np.zeros((0, width), dtype=np.int64)
     gathered = comm.gather(vtk, root=0)
     if comm.rank != 0:
         return None

@@ -1,8 +1,8 @@
 """``stress.xdmf`` and ``stress.h5``: the whole body's stress at a scene's ``stress_times``, a
 time series ParaView opens (binary HDF5 data, XDMF 3 text; docs/files.md).
 
-The mesh is written once: the undeformed node coordinates (``/geometry``, N × 3) and the P2
-cells (``/cells``, C × 10, XDMF's Tetrahedron_10 node order). Per time k: ``/displacement/k``
+The mesh is written once: the undeformed node coordinates (``/geometry``, N × 3) and the
+cells (``/cells``, C × 10 in XDMF's Tetrahedron_10 node order; C × 4 on a P1 mesh). Per time k: ``/displacement/k``
 (N × 3, rigid motion included: ParaView's Warp By Vector with factor 1 shows the body where
 it is), ``/von_mises/k`` (N, Pa) and ``/stress/k`` (N × 6, Pa, the Cauchy stress in the
 global frame as XDMF's Tensor6: xx, xy, xz, yy, yz, zz). Both files are written beside each
@@ -29,8 +29,14 @@ def _item(shape: tuple[int, ...], path: str, number: str = "Float") -> str:
             f'Format="HDF">{DATA}:{path}</DataItem>')
 
 
-def xdmf_text(node_count: int, cell_count: int, times: Sequence[float]) -> str:
-    """The XDMF document of ``stress.h5`` (module docstring)."""
+#: XDMF's topology of a tetrahedron of 4 and of 10 nodes.
+TOPOLOGY = {4: "Tetrahedron", 10: "Tetrahedron_10"}
+
+
+def xdmf_text(node_count: int, cells: tuple[int, int], times: Sequence[float]) -> str:
+    """The XDMF document of ``stress.h5`` (module docstring) for ``cells`` (count, nodes a
+    cell)."""
+    cell_count, width = cells
     grids = []
     for k, t in enumerate(times):
         attributes = "".join(
@@ -41,8 +47,8 @@ def xdmf_text(node_count: int, cell_count: int, times: Sequence[float]) -> str:
                                       ("stress", "Tensor6", (6,))))
         grids.append(
             f'<Grid Name="t{k}" GridType="Uniform"><Time Value="{t!r}"/>'
-            f'<Topology TopologyType="Tetrahedron_10" NumberOfElements="{cell_count}">'
-            f'{_item((cell_count, 10), "/cells", "Int")}</Topology>'
+            f'<Topology TopologyType="{TOPOLOGY[width]}" NumberOfElements="{cell_count}">'
+            f'{_item((cell_count, width), "/cells", "Int")}</Topology>'
             f'<Geometry GeometryType="XYZ">{_item((node_count, 3), "/geometry")}</Geometry>'
             f"{attributes}</Grid>")
     body = "\n".join(grids)
@@ -65,4 +71,4 @@ def write_stress_fields(folder: Path, nodes_m: np.ndarray, cells: np.ndarray,
                 f.create_dataset(f"displacement/{k}", data=np.asarray(displacement, "<f8"))
                 f.create_dataset(f"von_mises/{k}", data=np.asarray(vm, "<f8"))
                 f.create_dataset(f"stress/{k}", data=np.asarray(sigma, "<f8"))
-        tmp_text.write_text(xdmf_text(len(nodes_m), len(cells), [t for t, *_ in fields]))
+        tmp_text.write_text(xdmf_text(len(nodes_m), cells.shape, [t for t, *_ in fields]))

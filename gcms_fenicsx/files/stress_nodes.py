@@ -13,7 +13,7 @@ mesh's nodes N) and ``groups`` (JSON: the recorded groups' names in order); data
 rows per node of ``/gradient_nodes``, x, y, z), ``/gradient_nodes`` (r mesh-file indices),
 ``/requested`` (the recorded nodes, k positions in ``/gradient_nodes``), ``/groups/<name>``
 (each group's nodes, positions in the recorded nodes) and ``/cells`` (C × 10 mesh-file
-indices in VTK's Tetrahedron_10 order; C = 0 without whole-body fields). Sealed with content
+indices in VTK's Tetrahedron_10 order, C × 4 on a P1 mesh; C = 0 without whole-body fields). Sealed with content
 checksums (``files.versioned``). NumPy and h5py only.
 """
 from __future__ import annotations
@@ -76,7 +76,7 @@ class StressNodes:
     requested: np.ndarray          # (k,) the recorded nodes: positions in gradient_nodes
     groups: dict[str, np.ndarray]  # name -> positions in the recorded nodes
     gradient: SparseRows           # B, 3 r × node_count
-    cells: np.ndarray              # (C, 10) VTK-ordered, C = 0 without whole-body fields
+    cells: np.ndarray              # (C, 4 or 10) VTK-ordered, C = 0 without whole-body fields
 
     @property
     def nodes(self) -> np.ndarray:
@@ -114,7 +114,7 @@ def write_stress_nodes(path: str | Path, nodes: StressNodes) -> None:
         f.create_dataset("requested", data=nodes.requested.astype(np.int64))
         for name, members in nodes.groups.items():
             f.create_dataset(f"groups/{name}", data=members.astype(np.int64))
-        f.create_dataset("cells", data=nodes.cells.astype(np.int64).reshape(-1, 10))
+        f.create_dataset("cells", data=nodes.cells.astype(np.int64))
         seal(f)
 
 
@@ -162,7 +162,9 @@ def _check(nodes: StressNodes, where: str) -> None:
         problems.append("/requested are not positions of /gradient_nodes")
     if any(len(m) and (m.min() < 0 or m.max() >= k) for m in nodes.groups.values()):
         problems.append("a group holds positions outside the recorded nodes")
-    if nodes.cells.size and (nodes.cells.min() < 0 or nodes.cells.max() >= N):
+    if nodes.cells.ndim != 2 or nodes.cells.shape[1] not in (4, 10):
+        problems.append("/cells are not tetrahedra of 4 or 10 nodes")
+    elif nodes.cells.size and (nodes.cells.min() < 0 or nodes.cells.max() >= N):
         problems.append("/cells are not nodes of the mesh")
     if problems:
         raise StressNodesError(f"{where}: " + "; ".join(problems))

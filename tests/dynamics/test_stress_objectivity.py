@@ -23,8 +23,9 @@ def _recovery(body, law: str, nodes: int = 40, seed: int = 1) -> StressRecovery:
                                       StressOutputs(("all",))), body, law)
 
 
-def _nodes(body, nodes: int, seed: int) -> StressNodes:
-    """Stress nodes of ``body`` with a random gradient operator (12 nonzeros a row)."""
+def _nodes(body, nodes: int, seed: int, group: str = "all") -> StressNodes:
+    """Stress nodes of ``body``, all in ``group``, with a random gradient operator (12
+    nonzeros a row)."""
     rng = np.random.default_rng(seed)
     N = len(body.nodes_m)
     rows = rng.choice(N, nodes, replace=False)
@@ -35,7 +36,7 @@ def _nodes(body, nodes: int, seed: int) -> StressNodes:
     indices = np.concatenate([np.flatnonzero(row) for row in dense])
     B = SparseRows(indptr, indices, dense[dense != 0], dense.shape)
     return StressNodes(key="", node_count=N, gradient_nodes=np.sort(rows),
-                       requested=np.arange(nodes), groups={"all": np.arange(nodes)},
+                       requested=np.arange(nodes), groups={group: np.arange(nodes)},
                        gradient=B, cells=np.zeros((0, 10), dtype=np.int64))
 
 
@@ -122,8 +123,8 @@ def test_a_rotor_run_recovers_the_stresses_of_its_full_basis_coordinates(beam6_m
     scene = parse_scene({"end_time": 0.02, "time_step": 1e-3, "gravity": [0.0, -9.81, 0.0],
                          "joints": [pin], "outputs": {"coordinates": True,
                                                       "stress_groups": ["end_x0"]}})
-    nodes = _nodes(beam6_body, 30, 7)
-    traj, summary = simulate(beam6_model, scene, basis="rotor", stress_nodes=nodes)
+    traj, summary = simulate(beam6_model, scene, basis="rotor",
+                             stress_nodes=_nodes(beam6_body, 30, 7, "end_x0"))
     assert summary["basis"] == "rotor" and summary["stress"]["law"] == "corotated"
     again = _recovery(beam6_body, "corotated", nodes=30, seed=7)
     q = traj.coordinates["q"]
@@ -133,3 +134,49 @@ def test_a_rotor_run_recovers_the_stresses_of_its_full_basis_coordinates(beam6_m
     np.testing.assert_allclose(traj.stress["stress/peak_von_mises"], expected.max(axis=0),
                                rtol=1e-12)
     assert summary["stress"]["peak_von_mises_pa"] == pytest.approx(expected.max(), rel=1e-12)
+
+
+def test_stress_modes_of_other_groups_or_another_mesh_are_refused(beam6_model, beam6_body):
+    """Stress modes that are not the scene's — other groups, no cells for stress_times, a
+    mesh of another node count — are refused in one line naming what differs."""
+    from gcms_fenicsx.config.scene import SceneError, parse_scene
+    from gcms_fenicsx.dynamics.run.simulate import simulate
+
+    def scene(outputs: dict):
+        return parse_scene({"end_time": 0.002, "time_step": 1e-3, "outputs": outputs})
+
+    nodes = _nodes(beam6_body, 30, 7, "end_x0")
+    with pytest.raises(SceneError, match=r"hold the groups \['end_x0'\], the scene asks for "
+                       r"\['surface'\]"):
+        simulate(beam6_model, scene({"stress_groups": "surface"}), stress_nodes=nodes)
+    with pytest.raises(SceneError, match="without the whole body"):
+        simulate(beam6_model, scene({"stress_groups": ["end_x0"], "stress_times": [0.001]}),
+                 stress_nodes=nodes)
+    other = StressNodes(key="", node_count=nodes.node_count + 1,
+                        gradient_nodes=nodes.gradient_nodes, requested=nodes.requested,
+                        groups=nodes.groups, gradient=nodes.gradient, cells=nodes.cells)
+    with pytest.raises(SceneError, match="another body"):
+        simulate(beam6_model, scene({"stress_groups": ["end_x0"]}), stress_nodes=other)
+
+
+@pytest.mark.parametrize("width, topology", [(10, "Tetrahedron_10"), (4, "Tetrahedron")])
+def test_stress_xdmf_names_the_cells_it_holds(tmp_path, width, topology):
+    """stress.xdmf's topology is that of the cells written (P2: Tetrahedron_10, P1:
+    Tetrahedron), and every DataItem is a dataset of stress.h5 of the stated dimensions."""
+    import xml.etree.ElementTree as ElementTree
+
+    import h5py
+
+    from gcms_fenicsx.files.stress_fields import write_stress_fields
+
+    rng = np.random.default_rng(2)
+    nodes, cells = rng.normal(size=(12, 3)), rng.integers(0, 12, size=(5, width))
+    fields = [(t, rng.normal(size=(12, 3)), rng.random(12), rng.normal(size=(12, 6)))
+              for t in (0.1, 0.2)]
+    write_stress_fields(tmp_path, nodes, cells, fields)
+    root = ElementTree.parse(tmp_path / "stress.xdmf").getroot()
+    assert {t.get("TopologyType") for t in root.iter("Topology")} == {topology}
+    with h5py.File(tmp_path / "stress.h5") as f:
+        for item in root.iter("DataItem"):
+            name = item.text.split(":", 1)[1]
+            assert f[name].shape == tuple(int(d) for d in item.get("Dimensions").split())

@@ -175,7 +175,9 @@ def text_units(rows: list[dict]) -> str:
                  f"{g(mm.get('tip_difference_over_L'))} L with "
                  f"{g(mm.get('newton_iterations_mean'), '.2f')} Newton iterations per step "
                  f"(SI {g(ref.get('newton_iterations_mean'), '.2f')}), energy drift "
-                 f"{g(mm.get('energy_drift_rel'))} against {g(ref.get('energy_drift_rel'))}.")
+                 f"{g(mm.get('energy_drift_rel'))} against {g(ref.get('energy_drift_rel'))}; "
+                 f"its peak von Mises stresses at the surface nodes (MPa) are the SI ones (Pa) "
+                 f"×1e-6 to {g(mm.get('stress_difference'))} of the largest.")
     return text
 
 

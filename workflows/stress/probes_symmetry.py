@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 
 from stress.measures import compare_to, pair_split, rel
-from stress.readers import both, read_modes, read_selection, read_summary, tip_positions
+from stress.readers import (both, peak_stresses, read_modes, read_selection, read_summary,
+                            tip_positions)
 from stress.runner import gcms
 from stress.studies import (BEAM_LENGTH_M, CUT_PAIR_MODES, EPSILONS, SQUARE_MODES, mm_t_s,
                             square_beam, swinging_square_beam)
@@ -81,10 +82,12 @@ def symmetry(suite: Suite) -> None:
 
 
 def units(suite: Suite) -> None:
-    """Class 2: the swinging beam in SI and in mm-t-s, the beam scaled by 1e-3 and 1e3 (with
-    the swing's scene, so with the same attachment modes as the SI study)."""
+    """Class 2: the swinging beam in SI and in mm-t-s (with every surface node's stresses),
+    the beam scaled by 1e-3 and 1e3 (with the swing's scene, so with the same attachment
+    modes as the SI study)."""
     reader = both(read_modes, read_selection)
     si_study = swinging_square_beam()
+    si_study["scene"]["outputs"]["stress_groups"] = "surface"
     si = gcms("run", si_study, suite.path("units_SI"))
     ref = suite.probe("units", "SI", si, both(reader, read_summary), scale=1.0)
     ok = si.ok and "read_error" not in ref
@@ -95,6 +98,9 @@ def units(suite: Suite) -> None:
         try:
             row["tip_difference_over_L"] = tip_gap(tip_positions(si.out),
                                                    tip_positions(mm.out) / 1e3)
+            si_peak, mm_peak = peak_stresses(si.out), peak_stresses(mm.out)
+            row["stress_difference"] = float(np.abs(1e6 * mm_peak - si_peak).max()
+                                             / si_peak.max())
         except Exception as exc:  # noqa: BLE001
             row["read_error"] = f"results.h5: {type(exc).__name__}: {exc}"
         row["energy_drift_change"] = rel(row["energy_drift_rel"], ref["energy_drift_rel"])

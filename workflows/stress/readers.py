@@ -115,6 +115,12 @@ def tip_positions(out: Path) -> np.ndarray:
     return np.asarray(read_trajectory(out).groups["end_xL"]["position"])
 
 
+def peak_stresses(out: Path) -> np.ndarray:
+    """Every recorded node's peak von Mises stress over the run (results.h5, the study's
+    stress unit)."""
+    return np.asarray(read_trajectory(out).stress["stress/peak_von_mises"])
+
+
 def balance_history(traj) -> tuple[np.ndarray, np.ndarray]:
     """(t, balance error / max(kinetic + elastic)): the energy balance error over time in the
     scale of ``energy_drift_rel``."""

@@ -211,6 +211,11 @@ def _run(body: Body | RotorBody, scene: Scene, open_sink: OpenSink, capacity: Ca
     t_setup = time.perf_counter()
     run = prepare_run(body, scene, capacity, factorize, elastic, progress, kkt_solve,
                       stress.layout() if stress else ())
+    if stress and len(run.plan.stress_steps) < len(set(stress.setup.outputs.times)):
+        progress(f"note: [scene.outputs] stress_times: {len(set(stress.setup.outputs.times))} "
+                 f"times "
+                 f"fall on {len(run.plan.stress_steps)} steps of {scene.time_step_s:g} s; "
+                 "each step's stress is written once")
     sink = open_sink(run.plan)
     recorder = Recorder(full, run.constraints, run.forces, scene.outputs, run.plan,
                         scene.time_step_s, sink,

@@ -34,7 +34,8 @@ from gcms_fenicsx.files.reduced_model import ReducedModel
 from gcms_fenicsx.files.stress_nodes import StressNodes
 from gcms_fenicsx.numerics.rotation import InvertedBodyError
 
-#: The recorded steps × nodes of one pass (9 doubles each: 5 MB).
+#: The recorded steps × nodes of one pass (9 doubles each: 5 MB an array; four times as many
+#: were measured no faster on the default crankshaft's surface).
 NODE_ROWS_PER_PASS = 1 << 16
 VON_MISES = "stress/von_mises"
 
@@ -65,7 +66,25 @@ def stress_setup(model: ReducedModel, scene: Scene,
     except (KeyError, TypeError, ValueError) as exc:
         raise SceneError("[scene.outputs] stress_groups: the reduced model records no "
                          f"material ({exc}); reduce the body again") from exc
+    check_nodes(nodes, asked, len(model.nodes_m))
     return StressSetup(nodes=nodes, lame=material.lame, outputs=asked)
+
+
+def check_nodes(nodes: StressNodes, asked: StressOutputs, node_count: int) -> None:
+    """SceneError unless the stress modes ``nodes`` are those ``asked`` for (the same
+    groups, the cells for whole-body stresses) on a mesh of ``node_count`` nodes."""
+    where = "[scene.outputs] stress_groups: the stress modes (stress_modes.h5)"
+    if nodes.node_count != node_count:
+        raise SceneError(f"{where} are of a mesh of {nodes.node_count} nodes, the reduced "
+                         f"model's has {node_count}: they belong to another body")
+    if set(nodes.groups) != set(asked.labels):
+        raise SceneError(f"{where} hold the groups {sorted(nodes.groups)}, the scene asks for "
+                         f"{sorted(asked.labels)}; form them for this scene (gcms reduce or "
+                         "gcms run of this study)")
+    if asked.whole_body and not len(nodes.cells):
+        raise SceneError(f"{where} were formed without the whole body, which stress_times "
+                         "asks for; form them for this scene (gcms reduce or gcms run of "
+                         "this study)")
 
 
 def rotations(A: np.ndarray) -> np.ndarray:
@@ -86,13 +105,16 @@ def hooke(strain: np.ndarray, mu: float, lmbda: float) -> np.ndarray:
     return lmbda * trace * np.eye(3) + 2.0 * mu * strain
 
 
+def corotated_local_stress(local: np.ndarray, mu: float, lmbda: float) -> np.ndarray:
+    """σ_loc = C : ε, ε = sym(Rᵀ F) − I, from the body frame's gradients Rᵀ F (..., 3, 3)."""
+    return hooke(0.5 * (local + np.swapaxes(local, -1, -2)) - np.eye(3), mu, lmbda)
+
+
 def corotated_stress(F: np.ndarray, R: np.ndarray, mu: float, lmbda: float
                      ) -> tuple[np.ndarray, np.ndarray]:
-    """(σ_loc, σ) of the co-rotated law: ε = sym(Rᵀ F) − I, σ_loc = C : ε, σ = R σ_loc Rᵀ;
-    F (..., 3, 3), R broadcast against it."""
-    local = np.swapaxes(R, -1, -2) @ F
-    strain = 0.5 * (local + np.swapaxes(local, -1, -2)) - np.eye(3)
-    sigma_local = hooke(strain, mu, lmbda)
+    """(σ_loc, σ) of the co-rotated law: σ_loc of Rᵀ F (:func:`corotated_local_stress`),
+    σ = R σ_loc Rᵀ; F (..., 3, 3), R broadcast against it."""
+    sigma_local = corotated_local_stress(np.swapaxes(R, -1, -2) @ F, mu, lmbda)
     return sigma_local, R @ sigma_local @ np.swapaxes(R, -1, -2)
 
 
@@ -115,6 +137,14 @@ def principal(s: np.ndarray) -> np.ndarray:
     return np.linalg.eigvalsh(0.5 * (s + np.swapaxes(s, -1, -2)))[..., ::-1]
 
 
+def _gradients(D: Any, Q: np.ndarray) -> np.ndarray:
+    """F = Qᵀ D_i at every node i of D (3 nodes × nf) for rows Q (rows, nf, 3): one product,
+    (rows, nodes, 3, 3), F[l, c] = ∂x_l/∂X_c."""
+    rows, nf, _ = Q.shape
+    G = np.asarray(D @ Q.transpose(1, 0, 2).reshape(nf, 3 * rows))   # (3 nodes, 3 rows)
+    return G.reshape(-1, 3, rows, 3).transpose(2, 0, 3, 1)
+
+
 def field_gradients(B: Any, fields: Any) -> Any:
     """D = B F (3 r × nf): dense for dense fields; sparse (SciPy) for a sparse F (the
     full-order model's F = I, whose D is B itself)."""
@@ -131,9 +161,7 @@ class StressRecovery:
 
     def __init__(self, setup: StressSetup, body: Any, law: str) -> None:
         nodes = setup.nodes
-        if nodes.node_count != len(body.nodes_m):
-            raise ValueError(f"the stress modes are of a mesh of {nodes.node_count} nodes, "
-                             f"the body has {len(body.nodes_m)}")
+        check_nodes(nodes, setup.outputs, len(body.nodes_m))
         self.setup, self.law, self.affine = setup, law, np.asarray(body.affine)
         self.mu, self.lmbda = setup.lame
         D = field_gradients(nodes.gradient, body.node_fields)
@@ -158,17 +186,20 @@ class StressRecovery:
                 *(Series(f"stress/groups/{g}/{s}", shape) for g in self.setup.nodes.groups
                   for s, shape in (("von_mises", ()), ("principal", (3,)))))
 
-    def stresses(self, D: Any, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(σ_loc or σ for the invariants, σ in the global frame) at D's nodes for the
-        coordinate rows Q (rows, nf, 3): (rows, nodes, 3, 3) each."""
-        rows, nf, _ = Q.shape
-        G = D @ Q.transpose(1, 0, 2).reshape(nf, 3 * rows)       # (3 nodes, 3 rows)
-        F = np.asarray(G).reshape(-1, 3, rows, 3).transpose(2, 0, 3, 1)  # [row, node, l, c]
+    def stresses(self, D: Any, Q: np.ndarray, turned: bool = True
+                 ) -> tuple[np.ndarray, np.ndarray | None]:
+        """(σ_loc — SVK: σ — for the invariants, σ in the global frame or None unless
+        ``turned``) at D's nodes for the coordinate rows Q (rows, nf, 3): (rows, nodes, 3, 3).
+        Co-rotated, Rᵀ F = (Q R)ᵀ D: the frame turns the rows' Q, not every node's F."""
         if self.law == "svk":
-            sigma = svk_stress(F, self.mu, self.lmbda)
+            sigma = svk_stress(_gradients(D, Q), self.mu, self.lmbda)
             return sigma, sigma
-        R = rotations(np.swapaxes(Q, 1, 2) @ self.affine)[:, None]
-        return corotated_stress(F, R, self.mu, self.lmbda)
+        R = rotations(np.swapaxes(Q, 1, 2) @ self.affine)
+        sigma_local = corotated_local_stress(_gradients(D, Q @ R), self.mu, self.lmbda)
+        if not turned:
+            return sigma_local, None
+        R = R[:, None]
+        return sigma_local, R @ sigma_local @ np.swapaxes(R, -1, -2)
 
     def block(self, times: np.ndarray, Q: np.ndarray) -> dict[str, np.ndarray]:
         """The series of a block of recorded rows at ``times`` with coordinates Q (rows, nf, 3),
@@ -179,7 +210,7 @@ class StressRecovery:
         vm = np.empty((len(times), k))
         at = {g: np.empty((len(times), 3)) for g in self.setup.nodes.groups}
         for start in range(0, len(times), step):
-            invariant, _ = self.stresses(self.recorded, Q[start:start + step])
+            invariant, _ = self.stresses(self.recorded, Q[start:start + step], turned=False)
             v = vm[start:start + step] = von_mises(invariant)
             for g, members in self.setup.nodes.groups.items():
                 top = members[np.argmax(v[:, members], axis=1)]

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from gcms_fenicsx.config.plan import BodyPlan, ScenePlan
 from gcms_fenicsx.config.study import load_config
+from gcms_fenicsx.config.scene import SceneError
 from gcms_fenicsx.config.table import ConfigError
 from gcms_fenicsx.dynamics.run.simulate import simulate_to_file
 from gcms_fenicsx.files.modal_basis import holds_attachment_modes
@@ -109,7 +110,11 @@ def simulate_model(reduced: Path, config: Path, out: Path, progress: Progress = 
     stress = None
     if plan.scene.scene.outputs.stress is not None:
         beside = Path(reduced).parent / "stress_modes.h5"
-        stress = read_stress_nodes(beside) if beside.is_file() else None
+        if not beside.is_file():
+            raise SceneError(f"[scene.outputs] stress_groups: the stresses need the stress "
+                             f"modes, {beside} (gcms reduce of this study writes them beside "
+                             "reduced.h5)")
+        stress = read_stress_nodes(beside)
     if not model.checksummed:
         progress(f"note: {reduced} was written before content checksums (schema "
                  f"{model.schema_version}); its contents cannot be verified")
