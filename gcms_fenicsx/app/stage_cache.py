@@ -186,12 +186,12 @@ def reuse(body: BodyPlan, out: Path, upto: str, fresh: bool, progress: Progress)
     asked = upto == "reduced" and body.stress is not None
     stress = cached_stress(body, out, manifest, progress) if asked else None
     if reduced is not None and not shapes and (stress is not None or not asked):
-        return Reuse(reduced=reduced, stress=stress)
+        return _said(Reuse(reduced=reduced, stress=stress), out, progress)
     on_mesh = shapes or (upto == "reduced" and reduced is None and body.svk) or \
         (asked and stress is None)
     modes = cached_modes(body, out, manifest, progress) if upto != "mesh" else None
     if modes is not None and not on_mesh:
-        return Reuse(modes=modes, reduced=reduced, stress=stress)
+        return _said(Reuse(modes=modes, reduced=reduced, stress=stress), out, progress)
     mesh = cached_mesh(body, out, manifest, progress)
     if on_mesh and (modes is not None or reduced is not None) and mesh is None:
         why = "mode shapes are written" if shapes else \
@@ -200,7 +200,20 @@ def reuse(body: BodyPlan, out: Path, upto: str, fresh: bool, progress: Progress)
         progress(f"modes: the cached modes' mesh cannot be reused, so neither can they nor the "
                  f"reduced model ({why} on that mesh); solving again")
         modes = reduced = None
-    return Reuse(mesh=mesh, modes=modes, reduced=reduced, stress=stress)
+    return _said(Reuse(mesh=mesh, modes=modes, reduced=reduced, stress=stress), out, progress)
+
+
+def _said(reuse: Reuse, out: Path, progress: Progress) -> Reuse:
+    """``reuse``, with a line for each of the reduced model and the stress modes it reuses
+    (said once the plan is final: a product found intact may still be dropped with the mesh
+    it was made on)."""
+    if reuse.reduced is not None:
+        progress(f"reduced model: reusing {out / 'reduced.h5'} ({reuse.reduced.dofs} "
+                 "coordinates; inputs unchanged)")
+    if reuse.stress is not None:
+        progress(f"stress modes: reusing {out / 'stress_modes.h5'} "
+                 f"({len(reuse.stress.requested)} nodes; inputs unchanged)")
+    return reuse
 
 
 def cached_mesh(body: BodyPlan, out: Path, manifest: dict[str, str] | None,
@@ -311,7 +324,6 @@ def cached_stress(body: BodyPlan, out: Path, manifest: dict[str, str] | None,
         progress(f"stress modes: {path} was made on another mesh or for other nodes "
                  "([scene.outputs] stress_groups, stress_times); forming them again")
         return None
-    progress(f"stress modes: reusing {path} ({len(nodes.requested)} nodes; inputs unchanged)")
     return nodes
 
 
@@ -338,5 +350,4 @@ def cached_reduced(body: BodyPlan, out: Path, manifest: dict[str, str] | None,
                if other_law else "was made from other inputs")
         progress(f"reduced model: {path} {why}; rebuilding it")
         return None
-    progress(f"reduced model: reusing {path} ({model.dofs} coordinates; inputs unchanged)")
     return model
