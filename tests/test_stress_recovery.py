@@ -1,4 +1,4 @@
-"""Stresses from the reduced model (docs/design.md §8): a static cantilever against beam theory
+"""Stresses from the reduced model (docs/design.md §9): a static cantilever against beam theory
 and against its full-order model, and the stress modes as a stage of ``gcms run`` — computed
 only when a scene asks, reused, formed alone when asked later, written for ParaView."""
 from __future__ import annotations

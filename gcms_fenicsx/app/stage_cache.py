@@ -35,8 +35,10 @@ The simulation always runs: it is what a scene asks for. NumPy and h5py only.
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 
@@ -49,6 +51,7 @@ from gcms_fenicsx.numerics.spectrum import clusters, cut_cluster_warning
 from gcms_fenicsx.runtime.progress import Progress
 from geometry.info import MeshInfo
 
+T = TypeVar("T")
 #: The cache's manifest in --out, and the files it covers.
 MANIFEST = "cache.json"
 CACHED_FILES = ("mesh.msh", "mesh.json", "modes.h5", "reduced.h5", "stress_modes.h5")
@@ -307,18 +310,29 @@ def restricted(stored: StoredModes, count: int) -> StoredModes:
     return replace(stored, basis=basis, document=doc)
 
 
+def _read_intact(out: Path, manifest: dict[str, str] | None, name: str, what: str,
+                 read: Callable[[Path], T], error: type[Exception], instead: str,
+                 progress: Progress) -> T | None:
+    """``read(out/name)`` if the file is there, matches the manifest and reads; else None,
+    with a line saying why and what the command does ``instead``."""
+    path = out / name
+    if not path.is_file() or not _intact(out, manifest, (name,), progress, what):
+        return None
+    try:
+        return read(path)
+    except error as exc:
+        progress(f"{what}: {path} cannot be used ({exc}); {instead}")
+        return None
+
+
 def cached_stress(body: BodyPlan, out: Path, manifest: dict[str, str] | None,
                   progress: Progress) -> StressNodes | None:
     """``out/stress_modes.h5`` if it was made on this study's mesh for the nodes its scene
     asks stresses at, intact; else None (with a line saying why it is formed again)."""
     path = out / "stress_modes.h5"
-    if not path.is_file() or \
-            not _intact(out, manifest, ("stress_modes.h5",), progress, "stress modes"):
-        return None
-    try:
-        nodes = read_stress_nodes(path)
-    except StressNodesError as exc:
-        progress(f"stress modes: {exc}; forming them again")
+    nodes = _read_intact(out, manifest, path.name, "stress modes", read_stress_nodes,
+                         StressNodesError, "forming them again", progress)
+    if nodes is None:
         return None
     if nodes.key != body.keys.stress:
         progress(f"stress modes: {path} was made on another mesh or for other nodes "
@@ -332,13 +346,9 @@ def cached_reduced(body: BodyPlan, out: Path, manifest: dict[str, str] | None,
     """``out/reduced.h5`` if it was made from this study's upstream tables, intact, else None
     (with a progress line saying why it is rebuilt)."""
     path = out / "reduced.h5"
-    if not path.is_file() or \
-            not _intact(out, manifest, ("reduced.h5",), progress, "reduced model"):
-        return None
-    try:
-        model = read_reduced(path)
-    except ReducedModelError as exc:
-        progress(f"reduced model: {path} cannot be used ({exc}); rebuilding it")
+    model = _read_intact(out, manifest, path.name, "reduced model", read_reduced,
+                         ReducedModelError, "rebuilding it", progress)
+    if model is None:
         return None
     if not model.checksummed:
         progress(f"reduced model: {path} has no content checksums (schema "

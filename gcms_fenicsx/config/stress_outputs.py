@@ -1,5 +1,5 @@
 """``[scene.outputs] stress_groups`` and ``stress_times``: the stresses a scene asks for
-(docs/design.md §8). A scene without them records no stress, and its study computes no
+(docs/design.md §9). A scene without them records no stress, and its study computes no
 stress modes."""
 from __future__ import annotations
 

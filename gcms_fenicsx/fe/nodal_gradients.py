@@ -1,5 +1,5 @@
 """The gradient of a nodal field at the nodes a scene's stresses are recovered at: the stress
-modes' finite-element part (docs/design.md §8).
+modes' finite-element part (docs/design.md §9).
 
 A P2 field's gradient is continuous inside a cell and jumps between cells, so at a node it has
 one value per cell that holds the node. The value recorded is their mean (every cell counts
@@ -13,7 +13,7 @@ needs) and to a full-order displacement, so a full-order reference's stress is f
 way, at the same nodes. Averaging the gradient, then forming the stress, is averaging the
 stress tensor of the co-rotated law (linear in F for a given frame), which on a P2 cantilever
 is within 0.16 % of beam theory away from the clamp; averaging a von Mises value instead is
-1.9 % off (design §8). The cost in accuracy is that of any nodal average: at a node on a sharp
+1.9 % off (design §9). The cost in accuracy is that of any nodal average: at a node on a sharp
 re-entrant edge the cells disagree most, and the mean is one value of a stress the
 continuum makes singular there — it converges with the mesh no better than the edge allows.
 

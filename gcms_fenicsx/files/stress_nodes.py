@@ -1,4 +1,4 @@
-"""The stress modes' mesh part and its file, ``stress_modes.h5`` (docs/design.md §8): the nodes
+"""The stress modes' mesh part and its file, ``stress_modes.h5`` (docs/design.md §9): the nodes
 a scene records stresses at, the operator B that gives a nodal field's gradient there
 (``fe.nodal_gradients``), and, for whole-body stress fields, the mesh's cells.
 

@@ -1,4 +1,4 @@
-"""Stresses recovered from the recorded motion, in the body's own elastic law (docs/design.md §8).
+"""Stresses recovered from the recorded motion, in the body's own elastic law (docs/design.md §9).
 
 With x(X) = Σ_f F_f(X) Q_f the deformation gradient at a node is F = Qᵀ D, D = ∇F there
 (nf × 3): linear in q. The stress modes give D = B F for the run's fields (B: the nodal
