@@ -85,3 +85,21 @@ def standalone_dynamics(request, tmp_path_factory):
     run = start_dynamics_tests(tmp_path_factory.mktemp("dynamics"))
     yield run
     run.stop()
+
+
+def full_and_reduced(cfg, folder: Path):
+    """(the free-free chain, the full-order body, the reduced body) of a parsed study: its
+    mesh, modes and reduction through the pipeline's stages into ``folder``, and the full
+    model on the same mesh with the same node groups (reference (a))."""
+    from gcms_fenicsx.app import pipeline
+    from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
+    from gcms_fenicsx.fe.node_groups import group_weights
+    from gcms_fenicsx.references.full_order import full_order_body
+
+    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.plan.body.modes,
+                               folder)
+    model = chain.assembly.model
+    full = full_order_body(model, group_weights(chain.body, model.Vs))
+    reduced = body_from_reduced(pipeline.reduction_stage(
+        pipeline.basis_stage(model, chain.modes, chain.body), cfg.selection))
+    return chain, full, reduced

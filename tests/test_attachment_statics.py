@@ -15,12 +15,10 @@ import tomllib
 import numpy as np
 import pytest
 
-from gcms_fenicsx.app import pipeline
+from conftest import full_and_reduced
 from gcms_fenicsx.config.study import default_config_text, parse_config
-from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
-from gcms_fenicsx.fe.node_groups import group_weights
 from gcms_fenicsx.dynamics.constraints.statics import held_static
-from gcms_fenicsx.references.full_order import full_held_static, full_order_body
+from gcms_fenicsx.references.full_order import full_held_static
 
 from spin import drive_spin
 
@@ -41,12 +39,7 @@ def test_the_crankshaft_held_by_its_bearings_and_drive_is_the_full_models(tmp_pa
     raw = tomllib.loads(default_config_text())
     cfg = parse_config(dict(raw, mesh=dict(raw["mesh"], size=0.02), modes={"count": 2},
                             basis={"attachment": "scene"}, selection={"svd_tolerance": 1e-7}))
-    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.plan.body.modes,
-                               tmp_path)
-    model = chain.assembly.model
-    full = full_order_body(model, group_weights(chain.body, model.Vs))
-    reduced = body_from_reduced(pipeline.reduction_stage(
-        pipeline.basis_stage(model, chain.modes, chain.body), cfg.selection))
+    _, full, reduced = full_and_reduced(cfg, tmp_path)
     def spin(body):
         return None if load == "scene" else drive_spin(cfg, body)
 

@@ -13,21 +13,18 @@ import numpy as np
 import pytest
 
 from beams import HEIGHT_Z, LENGTH, WIDTH_Y, beam_study
-from conftest import gcms, gcms_reduce, mpirun
-from gcms_fenicsx.app import pipeline
+from conftest import full_and_reduced, gcms, gcms_reduce, mpirun
 from gcms_fenicsx.config.stress_outputs import StressOutputs
 from gcms_fenicsx.config.study import parse_config
-from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
 from gcms_fenicsx.dynamics.constraints.statics import held_static
 from gcms_fenicsx.dynamics.run.capacity import Capacity
 from gcms_fenicsx.dynamics.run.simulate import prepare_run
 from gcms_fenicsx.dynamics.run.stress_recovery import corotated_stress, von_mises
 from gcms_fenicsx.fe.nodal_gradients import stress_nodes
-from gcms_fenicsx.fe.node_groups import group_weights
 from gcms_fenicsx.fe.node_order import input_node_indices
 from gcms_fenicsx.files.stress_nodes import read_stress_nodes
 from gcms_fenicsx.numerics.rotation import polar
-from gcms_fenicsx.references.full_order import full_held_static, full_order_body
+from gcms_fenicsx.references.full_order import full_held_static
 
 logging.disable(logging.INFO)
 
@@ -78,12 +75,8 @@ def test_cantilever_stress_is_beam_theory_and_the_full_models(tmp_path):
       (B at the same nodes, the co-rotated law) agree at every surface node to 1e-6 of the
       largest von Mises stress: the selection prunes at 1e-7 (measured 1.7e-9)."""
     cfg = parse_config(_study(0.006))
-    chain = pipeline.free_free(cfg.geometry, cfg.mesh, cfg.material, cfg.plan.body.modes,
-                               tmp_path)
+    chain, full, reduced = full_and_reduced(cfg, tmp_path)
     fe = chain.assembly.model
-    full = full_order_body(fe, group_weights(chain.body, fe.Vs))
-    reduced = body_from_reduced(pipeline.reduction_stage(
-        pipeline.basis_stage(fe, chain.modes, chain.body), cfg.selection))
     nodes = stress_nodes(chain.body, StressOutputs(surface=True), len(reduced.nodes_m), "")
     index = input_node_indices(fe.Vs)
     mu, lmbda = cfg.material.lame
