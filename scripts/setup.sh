@@ -5,7 +5,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 APT_PACKAGES=(python3-dolfinx-real python3-gmsh python3-h5py python3-scipy python3-numba python3-pytest
-              python3-matplotlib python3-venv python3-setuptools python3-pip openmpi-bin
+              python3-pytest-xdist python3-matplotlib python3-venv python3-setuptools python3-pip openmpi-bin
               libopenblas0-pthread)  # OpenBLAS: MUMPS factorises ~3.5x faster than with reference BLAS
 missing=()
 for p in "${APT_PACKAGES[@]}"; do
