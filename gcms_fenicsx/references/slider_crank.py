@@ -114,9 +114,33 @@ def _conrod_matrices() -> dict[str, np.ndarray]:
 CONROD = _conrod_matrices()
 
 
-def mass_and_forces(p: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """M(p) and f(p, ṗ) of (1), p = (φ1, φ2, x3, q1..q4): the test set's AM and F."""
-    c = CONROD
+def conrod_variant(bending_hz: tuple[float, float] | None = None,
+                   consistent_axial_mass: bool = False) -> dict[str, np.ndarray]:
+    """The conrod's matrices with its two bending frequencies (pinned–pinned, Hz) set to
+    ``bending_hz`` by scaling KQ's bending diagonal, and/or the axial mass block replaced by the
+    consistent one (a fifteenth of the test set's): what a conrod whose beam theory differs
+    from Euler–Bernoulli's (shear, rotary inertia: a 3D body) is compared with."""
+    c = {k: v.copy() for k, v in CONROD.items()}
+    if bending_hz is not None:
+        for k, f in enumerate(bending_hz):
+            c["KQ"][k, k] = c["MQ"][k, k] * (2 * np.pi * f) ** 2
+    if consistent_axial_mass:
+        c["MQ"][2:, 2:] /= 15.0
+    return c
+
+
+def bending_frequencies_hz(conrod: dict[str, np.ndarray] = CONROD) -> tuple[float, float]:
+    """The two bending modes' frequencies √(k_ii / m_ii) / 2π (Hz): Euler–Bernoulli's
+    pinned–pinned ones for the test set's data (203.19 and 812.76 Hz)."""
+    k, m = np.diag(conrod["KQ"]), np.diag(conrod["MQ"])
+    f = np.sqrt(k[:2] / m[:2]) / (2 * np.pi)
+    return float(f[0]), float(f[1])
+
+
+def mass_and_forces(p: np.ndarray, v: np.ndarray, c: dict[str, np.ndarray] = CONROD
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """M(p) and f(p, ṗ) of (1), p = (φ1, φ2, x3, q1..q4): the test set's AM and F (for the
+    conrod's matrices ``c``)."""
     q, qd, w1, w2 = p[3:], v[3:], v[0], v[1]
     s12, k12 = np.sin(p[0] - p[1]), np.cos(p[0] - p[1])
     c1q, c2q, c12q = c["c1"] @ q, c["c2"] @ q, c["c12"] @ q
@@ -156,9 +180,10 @@ def constraints(p: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return g, gamma
 
 
-def accelerations(p: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def accelerations(p: np.ndarray, v: np.ndarray, c: dict[str, np.ndarray] = CONROD
+                  ) -> tuple[np.ndarray, np.ndarray]:
     """p̈ and λ of the index-1 system [[M, Gᵀ], [G, 0]] (p̈, λ) = (f, γ) from (1)–(2)."""
-    m, f = mass_and_forces(p, v)
+    m, f = mass_and_forces(p, v, c)
     g, gamma = constraints(p, v)
     kkt = np.zeros((10, 10))
     kkt[:7, :7], kkt[:7, 7:], kkt[7:, :7] = m, g.T, g
@@ -178,10 +203,10 @@ def coordinates(t: float, q: np.ndarray, q_rate: np.ndarray) -> tuple[np.ndarray
             np.concatenate([[OMEGA, phi2_rate, x3_rate], q_rate]))
 
 
-def derivative(t: float, y: np.ndarray) -> np.ndarray:
+def derivative(t: float, y: np.ndarray, c: dict[str, np.ndarray] = CONROD) -> np.ndarray:
     """d/dt (q, q̇) of the slider crank, φ2, x3 eliminated by (2)."""
     p, v = coordinates(t, y[:4], y[4:])
-    a, _ = accelerations(p, v)
+    a, _ = accelerations(p, v, c)
     return np.concatenate([y[4:], a[3:]])
 
 
@@ -202,22 +227,23 @@ class Solution:
 
 def solve(initial: Literal["first", "second"] = "first", end_time: float = 0.1,
           times: np.ndarray | None = None, rtol: float = 1e-12,
-          atol: float | np.ndarray = 1e-14) -> Solution:
+          atol: float | np.ndarray = 1e-14, conrod: dict[str, np.ndarray] = CONROD) -> Solution:
     """Integrate from the test set's ``initial`` state ("first" or "second") to ``end_time``
     by DOP853; output at ``times`` (default: the accepted steps). ``atol`` applies to q in m
-    and is scaled by 1e3 s⁻¹ for q̇ (rates ~ 10³ × displacements) unless given per component."""
+    and is scaled by 1e3 s⁻¹ for q̇ (rates ~ 10³ × displacements) unless given per component.
+    ``conrod``: the conrod's matrices (the test set's, or a :func:`conrod_variant`)."""
     state = INITIAL[initial]
     y0 = np.concatenate([state["q"], state["q_rate"]])
     if np.ndim(atol) == 0:
         atol = np.concatenate([np.full(4, atol), np.full(4, 1e3 * atol)])
     ivp = solve_ivp(derivative, (0.0, end_time), y0, method="DOP853", t_eval=times,
-                    rtol=rtol, atol=atol)
+                    rtol=rtol, atol=atol, args=(conrod,))
     if not ivp.success:
         raise RuntimeError(f"slider crank: {ivp.message}")
     rows = []
     for t, y in zip(ivp.t, ivp.y.T):
         p, v = coordinates(t, y[:4], y[4:])
-        rows.append(np.concatenate([p, v, accelerations(p, v)[1]]))
+        rows.append(np.concatenate([p, v, accelerations(p, v, conrod)[1]]))
     out = np.array(rows)
     return Solution(time=ivp.t, phi2=out[:, 1], x3=out[:, 2], q=out[:, 3:7],
                     phi2_rate=out[:, 8], x3_rate=out[:, 9], q_rate=out[:, 10:14],

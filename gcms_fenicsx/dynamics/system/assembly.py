@@ -1,0 +1,199 @@
+"""An assembly: its members' coordinates stacked into one q, the block-diagonal constant mass
+matrix, and the joints' independent rows (docs/design.md §10).
+
+q = [q_1; …; q_B] in the order the members are given; Mr = diag(Mr_1, …, Mr_B) is applied
+block by block, never formed. The rows of every joint (``rows``) are stacked into g(q, t) and
+C(q, t) = ∂g/∂q; the rows implied by earlier ones at the start are found in the kinetic
+metric (``joints.independent_rows``, with Mr⁻¹ applied block by block) and dropped, so the
+Newton matrix's constraint block is regular; :attr:`Assembly.dropped` reports them. For
+linear rows (C constant) what is implied at the start is implied always; for driven and
+bilinear rows the test is of the start.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from gcms_fenicsx.dynamics.constraints.joints import RowInfo, independent_rows
+from gcms_fenicsx.dynamics.system.members import Flexible, Member
+from gcms_fenicsx.dynamics.system.rigid import Rigid, rigidity
+from gcms_fenicsx.dynamics.system.rows import Parts, Row
+
+
+class AssemblyError(ValueError):
+    """An assembly that cannot be built: which member or joint, and why."""
+
+
+@dataclass(frozen=True)
+class BlockDiagonal:
+    """diag(A_1, …, A_B) applied block by block to (N,) or (N, k) arrays by ``@``/``dot``:
+    ``blocks`` (slice, the block's product)."""
+
+    blocks: tuple[tuple[slice, Any], ...]
+
+    def dot(self, x: np.ndarray) -> np.ndarray:
+        out = np.empty_like(x, dtype=float)
+        for where, product in self.blocks:
+            out[where] = product(x[where])
+        return out
+
+    __matmul__ = dot
+
+
+class MemberRows(NamedTuple):
+    """A member's part of the kept rows: row ``index[i]`` has the Jacobian block kron(v_i, u_i)
+    over its coordinates (``vectors`` k × its fields, constant); ``entries`` (joint, term, row
+    within the joint) says where u_i comes from."""
+
+    index: np.ndarray
+    vectors: np.ndarray
+    entries: tuple[tuple[int, int, int], ...]
+
+
+@dataclass(frozen=True)
+class Assembly:
+    """Members, the kept rows and their start values, and what was dropped."""
+
+    members: tuple[Member, ...]
+    offsets: dict[str, slice]
+    joints: tuple[Row, ...]
+    kept: tuple[tuple[int, int], ...]   # (joint, row within it) of each kept row
+    rows: tuple[RowInfo, ...]
+    dropped: tuple[RowInfo, ...]
+    q_start: np.ndarray
+    gravity_force: np.ndarray           # f_g (N,)
+    member_rows: dict[str, MemberRows]
+    start_values: np.ndarray            # g(0) of the kept rows
+
+    @property
+    def dofs(self) -> int:
+        return len(self.q_start)
+
+    @property
+    def count(self) -> int:
+        return len(self.kept)
+
+    @property
+    def constant(self) -> bool:
+        """Whether C is constant (every joint's rows linear)."""
+        return all(row.constant for row in self.joints)
+
+    @property
+    def matrix(self) -> np.ndarray:
+        """C at the start."""
+        return self.jacobian(self.q_start, 0.0)
+
+    @property
+    def mass(self) -> BlockDiagonal:
+        return BlockDiagonal(tuple((self.offsets[m.name], m.mass_dot) for m in self.members))
+
+    @property
+    def total_mass_kg(self) -> float:
+        return float(sum(m.mass_kg for m in self.members))
+
+    @property
+    def size_m(self) -> float:
+        """The length scale of the Newton tolerance: the largest member's radius of gyration."""
+        return max(m.size_m for m in self.members)
+
+    def member(self, name: str) -> Member:
+        return next(m for m in self.members if m.name == name)
+
+    def parts(self, q: np.ndarray) -> Parts:
+        """Each member's coordinates as rows of 3 (views of q)."""
+        return {name: q[where].reshape(-1, 3) for name, where in self.offsets.items()}
+
+    def _kept(self, per_joint: list[np.ndarray]) -> np.ndarray:
+        return np.array([per_joint[j][k] for j, k in self.kept]).reshape(len(self.kept))
+
+    def residual(self, q: np.ndarray, t: float) -> np.ndarray:
+        """g(q, t) of the kept rows."""
+        parts = self.parts(q)
+        return self._kept([row.value(parts, t) for row in self.joints]) - self.start_values
+
+    def rates(self, q: np.ndarray, v: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """(∂g/∂t, γ) of the kept rows (``rows.Row.rates``)."""
+        Q, V = self.parts(q), self.parts(v)
+        both = [row.rates(Q, V, t) for row in self.joints]
+        return self._kept([b[0] for b in both]), self._kept([b[1] for b in both])
+
+    def directions(self, q: np.ndarray, t: float) -> dict[str, np.ndarray]:
+        """Each member's rows' directions u_i (k × 3), in :class:`MemberRows` order."""
+        parts = self.parts(q)
+        turned = [row.directions(parts, t) for row in self.joints]
+        return {name: np.array([turned[j][term][k] for j, term, k in rows.entries]
+                               ).reshape(len(rows.entries), 3)
+                for name, rows in self.member_rows.items()}
+
+    def jacobian(self, q: np.ndarray, t: float) -> np.ndarray:
+        """C(q, t) (m × N), dense."""
+        C = np.zeros((self.count, self.dofs))
+        for name, u in self.directions(q, t).items():
+            rows = self.member_rows[name]
+            if len(rows.index):
+                block = (rows.vectors[:, :, None] * u[:, None, :]).reshape(len(u), -1)
+                np.add.at(C[:, self.offsets[name]], rows.index, block)
+        return C
+
+
+def assemble(members: tuple[Member, ...], joints: tuple[Row, ...],
+             gravity: np.ndarray | None = None) -> Assembly:
+    """The assembly of ``members`` held by ``joints`` and each rigid member's rigidity rows
+    (``rigid``; module docstring); AssemblyError for a repeated member name or a joint on a
+    member that is not there."""
+    names = [m.name for m in members]
+    if len(set(names)) != len(names) or not names:
+        raise AssemblyError(f"an assembly needs members with distinct names, got {names}")
+    offsets, start = {}, 0
+    for m in members:
+        offsets[m.name] = slice(start, start + m.dofs)
+        start += m.dofs
+    for row in joints:
+        for term in row.terms:
+            if term.member not in offsets:
+                raise AssemblyError(f"joint {row.joint!r} holds {term.member!r}, which is not "
+                                    f"a member; the members are {names}")
+    # the rigidity rows first: a joint's row they imply is the one dropped, never theirs
+    joints = tuple(rigidity(m) for m in members if isinstance(m, Rigid)) + tuple(joints)
+    q_start = np.concatenate([m.q_start for m in members])
+    every = tuple((j, k) for j, row in enumerate(joints) for k in range(len(row.axes)))
+    full = _build(members, offsets, joints, every, q_start, gravity)
+    keep = list(range(len(every)))
+    if every:
+        inverse = BlockDiagonal(tuple((offsets[m.name], m.mass_solver()) for m in members))
+        keep, _ = independent_rows(full.matrix, full.mass, inverse.dot, keep)
+    infos = [info for row in joints for info in row.infos()]
+    kept = _build(members, offsets, joints, tuple(every[i] for i in keep), q_start, gravity)
+    return replace(kept, rows=tuple(infos[i] for i in keep),
+                   dropped=tuple(info for i, info in enumerate(infos) if i not in keep))
+
+
+def _build(members: tuple[Member, ...], offsets: dict[str, slice], joints: tuple[Row, ...],
+           kept: tuple[tuple[int, int], ...], q_start: np.ndarray,
+           gravity: np.ndarray | None) -> Assembly:
+    """The assembly with the rows ``kept`` (its start values taken at q_start)."""
+    parts: dict[str, list] = {m.name: [] for m in members}
+    for i, (j, k) in enumerate(kept):
+        for t, term in enumerate(joints[j].terms):
+            parts[term.member].append((i, term.vectors[k], (j, t, k)))
+    member_rows = {}
+    for m in members:
+        rows = parts[m.name]
+        width = m.body.field_count if isinstance(m, Flexible) else 1
+        member_rows[m.name] = MemberRows(np.array([r[0] for r in rows], dtype=int),
+                                         np.array([r[1] for r in rows]).reshape(len(rows), width),
+                                         tuple(r[2] for r in rows))
+    g = np.zeros(3) if gravity is None else np.asarray(gravity, float)
+    built = Assembly(members=tuple(members), offsets=offsets, joints=tuple(joints), kept=kept,
+                     rows=(), dropped=(), q_start=q_start, gravity_force=_gravity(members, g),
+                     member_rows=member_rows, start_values=np.zeros(len(kept)))
+    return replace(built, start_values=built.residual(q_start, 0.0))
+
+
+def _gravity(members: tuple[Member, ...], g: np.ndarray) -> np.ndarray:
+    """f_g: each flexible member's generalized gravity force ``gravity @ g``, m g for a point."""
+    parts = [np.asarray(m.body.gravity @ g) if isinstance(m, Flexible) else m.mass * g
+             for m in members]
+    return np.concatenate(parts)

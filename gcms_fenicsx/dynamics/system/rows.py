@@ -1,0 +1,314 @@
+"""Joint rows of an assembly (docs/design.md §10).
+
+A point of a member is linear in its coordinates: a node group's weighted mean position
+x_G = Qᵀ h (``body.GroupRows``), a point mass's position (its coordinates, h = [1]); so is a
+group's direction, L_G d = Qᵀ (H_G d). Every row here has the Jacobian of the single body's
+rows, kron(v_i, u_i) over a member's coordinates (a :class:`Term`: v_i constant, u_i a
+direction), in one of three forms:
+
+- :class:`LinearRow` — g_i = Σ_terms u_i · (Qᵀ v_i) − u_i · (p(t) − p(0)) − g_i(0), u_i
+  constant: :func:`coincide` (two points stay together, or a point follows a prescribed path
+  p, a crank pin driven round its circle: three rows along x, y, z), :func:`on_line` (a point
+  stays on the line through its start: two rows ⊥ it), :func:`keep_axis` (a group's direction
+  stays along an axis fixed in space: two rows u · L_G d with d the axis, as a revolute
+  joint's tilt rows to the ground, ``constraints.joints``);
+- :class:`DrivenRow` — g = u(t) · (Qᵀ v) − g(0), u(t) = R_e(θ(t)) u₀ turned by a drive about
+  the joint's axis (``joints.Constraints.directions_at``): :func:`drive` holds a group's
+  rotation about a fixed axis at the drive's angle;
+- :class:`BilinearRow` — g = (Q_Aᵀ a) · (Q_Bᵀ b) − g(0) between two flexible members: its
+  term for A has the direction Q_Bᵀ b, for B Q_Aᵀ a. :func:`align_axes` keeps a direction of
+  one member's group parallel to the same direction of another's (the tilt rows of a
+  revolute joint between two bodies).
+
+Every row holds where the assembly starts (g(0) is its value there). For the initial state
+and the work of the rows each gives ∂g/∂t and γ with C q̈ = γ (the rest of g̈ = 0).
+
+Multipliers: the residual holds + Cᵀ λ, so a row's generalized force is −λ_i c_i: a
+coincidence row along e_k applies −λ_i e_k (N) to its first point and +λ_i e_k to its
+second; an axis or drive row's λ is a moment (N·m).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Mapping
+
+import numpy as np
+
+from gcms_fenicsx.config.scene import Drive
+from gcms_fenicsx.dynamics.constraints.joints import RowInfo, plane_basis
+from gcms_fenicsx.dynamics.system.members import Flexible, PointMass
+from gcms_fenicsx.numerics.group_geometry import MIN_LEVER, lever
+
+#: t ↦ (p, ṗ, p̈) of a prescribed point (m, m/s, m/s²).
+Path = Callable[[float], tuple[np.ndarray, np.ndarray, np.ndarray]]
+#: Each member's coordinates as rows of 3 (Q, or Q̇), by name.
+Parts = Mapping[str, np.ndarray]
+AXES = np.eye(3)
+
+
+@dataclass(frozen=True)
+class Point:
+    """x = Qᵀ v of the member named ``member`` (``vector`` v: a group's h, [1] for a point
+    mass)."""
+
+    member: str
+    vector: np.ndarray
+    label: str
+
+
+def group_point(member: Flexible, group: str) -> Point:
+    """The weighted mean position of a node group of a flexible member."""
+    return Point(member.name, member.body.groups[group].position, f"{member.name}.{group}")
+
+
+def mass_point(member: PointMass) -> Point:
+    """A point mass's position."""
+    return Point(member.name, np.ones(1), member.name)
+
+
+@dataclass(frozen=True)
+class Term:
+    """One member's part of a joint's rows: row i's Jacobian block is kron(v_i, u_i), v_i the
+    rows of ``vectors`` (m × the member's fields), u_i the row's direction."""
+
+    member: str
+    vectors: np.ndarray
+
+    def values(self, Q: np.ndarray) -> np.ndarray:
+        """Qᵀ v_i for every row (m × 3)."""
+        return self.vectors @ Q
+
+    def matrix(self, directions: np.ndarray) -> np.ndarray:
+        """[kron(v_i, u_i)]_i (m × 3 fields)."""
+        m, nf = self.vectors.shape
+        return (self.vectors[:, :, None] * directions[:, None, :]).reshape(m, 3 * nf)
+
+
+@dataclass(frozen=True)
+class Row:
+    """The rows of one joint: its terms, ``axes`` (m × 3: what each row's multiplier acts
+    along or about, at the start), ``kind`` ("force" or "moment")."""
+
+    joint: str
+    terms: tuple[Term, ...]
+    axes: np.ndarray
+    kind: str
+
+    #: C does not change with q or t
+    constant = False
+
+    def infos(self) -> tuple[RowInfo, ...]:
+        unit = "N" if self.kind == "force" else "N*m"
+        return tuple(RowInfo(self.joint, self.kind, tuple(float(x) for x in u), unit)
+                     for u in self.axes)
+
+    def directions(self, Q: Parts, t: float) -> tuple[np.ndarray, ...]:
+        """Each term's directions u_i (m × 3) at (q, t)."""
+        raise NotImplementedError
+
+    def value(self, Q: Parts, t: float) -> np.ndarray:
+        """g + g(0) at (q, t) (m,)."""
+        raise NotImplementedError
+
+    def rates(self, Q: Parts, V: Parts, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """(∂g/∂t, γ) at (q, q̇, t), C q̈ = γ the rest of g̈ = 0."""
+        raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class LinearRow(Row):
+    """Σ_terms u_i · (Qᵀ v_i) − u_i · (p(t) − p(0)): constant ``units`` (one m × 3 array a
+    term) and an optional path (rows along ``axes``)."""
+
+    units: tuple[np.ndarray, ...] = ()
+    path: Path | None = None
+    constant = True
+
+    def directions(self, Q: Parts, t: float) -> tuple[np.ndarray, ...]:
+        return self.units
+
+    def value(self, Q: Parts, t: float) -> np.ndarray:
+        g = sum((u * term.values(Q[term.member])).sum(axis=1)
+                for term, u in zip(self.terms, self.units))
+        if self.path is not None:
+            g = g - self.axes @ (self.path(t)[0] - self.path(0.0)[0])
+        return np.asarray(g)
+
+    def rates(self, Q: Parts, V: Parts, t: float) -> tuple[np.ndarray, np.ndarray]:
+        if self.path is None:
+            return np.zeros(len(self.axes)), np.zeros(len(self.axes))
+        _, rate, acceleration = self.path(t)
+        return -self.axes @ rate, self.axes @ acceleration
+
+
+@dataclass(frozen=True)
+class DrivenRow(Row):
+    """u(t) · (Qᵀ v), u(t) = R_e(θ(t)) u₀ (one term, ``start`` u₀ (m × 3), ``axis`` e)."""
+
+    start: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    axis: np.ndarray = field(default_factory=lambda: AXES[2])
+    drive: Drive | None = None
+
+    def turned(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(u, u̇, ü) at t (Rodrigues: u(t) = cos θ u₀ + sin θ e × u₀ + (1 − cos θ) e (e · u₀))."""
+        assert self.drive is not None
+        theta, rate, accel = self.drive.angle(t)
+        e, u0 = self.axis, self.start
+        across, along = np.cross(e, u0), np.outer(u0 @ e, e)
+        c, s = math.cos(theta), math.sin(theta)
+        u = c * u0 + s * across + (1.0 - c) * along
+        turned_across = c * across + s * (along - u0)          # e × u(t)
+        return u, rate * turned_across, accel * turned_across + rate * rate * (along - u)
+
+    def directions(self, Q: Parts, t: float) -> tuple[np.ndarray, ...]:
+        return (self.turned(t)[0],)
+
+    def value(self, Q: Parts, t: float) -> np.ndarray:
+        (term,) = self.terms
+        return (self.turned(t)[0] * term.values(Q[term.member])).sum(axis=1)
+
+    def rates(self, Q: Parts, V: Parts, t: float) -> tuple[np.ndarray, np.ndarray]:
+        (term,) = self.terms
+        _, u_rate, u_accel = self.turned(t)
+        x, v = term.values(Q[term.member]), term.values(V[term.member])
+        return (u_rate * x).sum(axis=1), -(2.0 * u_rate * v + u_accel * x).sum(axis=1)
+
+
+@dataclass(frozen=True)
+class BilinearRow(Row):
+    """(Q_Aᵀ a_i) · (Q_Bᵀ b_i): terms (A, a), (B, b)."""
+
+    def directions(self, Q: Parts, t: float) -> tuple[np.ndarray, ...]:
+        first, second = self.terms
+        return second.values(Q[second.member]), first.values(Q[first.member])
+
+    def value(self, Q: Parts, t: float) -> np.ndarray:
+        first, second = self.terms
+        return (first.values(Q[first.member]) * second.values(Q[second.member])).sum(axis=1)
+
+    def rates(self, Q: Parts, V: Parts, t: float) -> tuple[np.ndarray, np.ndarray]:
+        first, second = self.terms
+        rate_a, rate_b = first.values(V[first.member]), second.values(V[second.member])
+        return np.zeros(len(self.axes)), -2.0 * (rate_a * rate_b).sum(axis=1)
+
+
+def _along(point: Point, sign: float, count: int) -> Term:
+    return Term(point.member, sign * np.tile(point.vector, (count, 1)))
+
+
+def coincide(joint: str, a: Point, b: Point | Path) -> LinearRow:
+    """x_a − x_b = const along x, y, z; or x_a − p(t) = const for a path p."""
+    if isinstance(b, Point):
+        return LinearRow(joint, (_along(a, 1.0, 3), _along(b, -1.0, 3)), AXES.copy(), "force",
+                         units=(AXES, AXES))
+    return LinearRow(joint, (_along(a, 1.0, 3),), AXES.copy(), "force", units=(AXES,), path=b)
+
+
+def on_line(joint: str, a: Point, direction: np.ndarray) -> LinearRow:
+    """x_a stays on the line through its start along ``direction``: the two rows n_k · x_a."""
+    axis = np.asarray(direction, float) / np.linalg.norm(direction)
+    normals = np.array(plane_basis(axis))
+    return LinearRow(joint, (_along(a, 1.0, 2),), normals, "force", units=(normals,))
+
+
+def _unit(axis: np.ndarray) -> np.ndarray:
+    return np.asarray(axis, float) / np.linalg.norm(axis)
+
+
+def _lever(joint: str, member: Flexible, group: str, c: np.ndarray,
+           turning: np.ndarray | None) -> np.ndarray:
+    """A direction d (in the assembly) the group extends in, ⊥ c (``lever``; spans are of the
+    undeformed body, turned by the member's placement)."""
+    R0 = member.placement
+    d = lever(member.body.groups[group].span, R0.T @ c,
+              None if turning is None else R0.T @ turning)
+    if d is None:
+        raise ValueError(f"joint {joint!r}: group {group!r} of {member.name!r} cannot hold a "
+                         f"rotation about {np.round(c, 3).tolist()}: its nodes do not extend "
+                         "perpendicular to it")
+    return R0 @ d
+
+
+def _group_vector(member: Flexible, group: str, d: np.ndarray) -> np.ndarray:
+    """v with Qᵀ v = L_G d̄, d̄ = R₀ᵀ d the direction d of the assembly in the body's own
+    coordinates (L_G maps those; it is R₀ at the start)."""
+    return member.body.groups[group].affine @ (member.placement.T @ d)
+
+
+def keep_axis(joint: str, member: Flexible, group: str, axis: np.ndarray) -> LinearRow:
+    """The group's direction ``axis`` stays along it: for c ⊥ axis, the rotation about c is the
+    row u · L_G d with d = axis (turning about the axis leaves it alone: ``lever``) and u = c × d,
+    so its multiplier is the moment about c. ValueError if the group cannot hold it."""
+    e = _unit(axis)
+    levers = [(c, _lever(joint, member, group, c, e)) for c in plane_basis(e)]
+    vectors = np.array([_group_vector(member, group, d) for _, d in levers])
+    return LinearRow(joint, (Term(member.name, vectors),),
+                     np.array([c for c, _ in levers]), "moment",
+                     units=(np.array([np.cross(c, d) for c, d in levers]),))
+
+
+def drive(joint: str, member: Flexible, group: str, axis: np.ndarray, prescribed: Drive
+          ) -> DrivenRow:
+    """The group's rotation about the fixed ``axis`` is the drive's angle θ(t): the row
+    u(t) · L_G d, d ⊥ axis in the group, u₀ = axis × d turned by θ(t) (its multiplier the drive
+    moment, N·m; ``joints``: sin(φ − θ) for a rotation φ)."""
+    e = _unit(axis)
+    d = _lever(joint, member, group, e, None)
+    return DrivenRow(joint, (Term(member.name, _group_vector(member, group, d)[None, :]),),
+                     e[None, :], "moment",
+                     start=np.cross(e, d)[None, :], axis=e, drive=prescribed)
+
+
+def align_axes(joint: str, a: Flexible, group_a: str, b: Flexible, group_b: str,
+               axis: np.ndarray) -> BilinearRow:
+    """The direction ``axis`` of a's group stays parallel to that of b's group: for each c ⊥
+    the axis e, the row (L_A p) · (L_B s) with p × s = c measures the relative rotation about c
+    and, with p or s the axis itself, is blind to the relative turning about it: p = e,
+    s = c × e where a's group extends along e and b's along s, else s = e, p = e × c. Two rows;
+    ValueError naming the groups when neither pair lies in them."""
+    e = _unit(axis)
+
+    def within(member: Flexible, group: str, d: np.ndarray) -> bool:
+        span = member.body.groups[group].span
+        return bool(np.linalg.norm(span.T @ (member.placement.T @ d)) >= 1.0 - MIN_LEVER)
+
+    pairs = []
+    for c in plane_basis(e):
+        for p, s in ((e, np.cross(c, e)), (np.cross(e, c), e)):
+            if within(a, group_a, p) and within(b, group_b, s):
+                pairs.append((p, s))
+                break
+        else:
+            raise ValueError(f"joint {joint!r}: groups {group_a!r} of {a.name!r} and "
+                             f"{group_b!r} of {b.name!r} cannot hold the rotation about "
+                             f"{np.round(c, 3).tolist()}: one must extend along "
+                             f"{np.round(e, 3).tolist()} and the other across it")
+    return BilinearRow(joint, (Term(a.name, np.array([_group_vector(a, group_a, p)
+                                                      for p, _ in pairs])),
+                               Term(b.name, np.array([_group_vector(b, group_b, s)
+                                                      for _, s in pairs]))),
+                       np.array(plane_basis(e)), "moment")
+
+
+def circle_path(center: np.ndarray, start: np.ndarray, axis: np.ndarray, rate: float) -> Path:
+    """A point turning about ``axis`` through ``center`` at ``rate`` rad/s from ``start``: a
+    crank pin driven at constant speed (Rodrigues' rotation of r = start − center)."""
+    e = _unit(axis)
+    c = np.asarray(center, float)
+    r = np.asarray(start, float) - c
+    along, across, normal = e * (e @ r), np.cross(e, r), r - e * (e @ r)
+
+    def path(t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        cs, sn = np.cos(rate * t), np.sin(rate * t)
+        x = c + along + cs * normal + sn * across
+        v = rate * (-sn * normal + cs * across)
+        a = -rate * rate * (cs * normal + sn * across)
+        return x, v, a
+    return path
+
+
+def fixed_point(x: np.ndarray) -> Path:
+    """A point that does not move (the ground)."""
+    x = np.asarray(x, float)
+    return lambda t: (x, np.zeros(3), np.zeros(3))
