@@ -95,7 +95,7 @@ def test_a_free_rigid_body_stays_rigid_and_keeps_its_energy_and_momentum():
 
 
 def test_a_bad_mass_or_inertia_is_refused():
-    with pytest.raises(ValueError, match="mass must be > 0"):
+    with pytest.raises(ValueError, match="mass_kg must be a finite number > 0"):
         rigid_body(0.0, np.zeros(3), np.eye(3), {})
     with pytest.raises(ValueError, match="principal"):
         rigid_body(1.0, np.zeros(3), np.diag([1.0, 1.0, 3.0]), {})

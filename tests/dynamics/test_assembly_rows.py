@@ -50,7 +50,8 @@ def every_kind(body):
     """An assembly with one joint of every kind on two beams and a point mass."""
     upper, lower = hanging(body)
     mass = PointMass("bob", 0.3, [0.0, 0.2, 0.0])
-    pin = rows.circle_path([0.0, 0.0, 0.0], [0.0, 0.1, 0.0], [0.0, 0.0, 1.0], 7.0)
+    pin = rows.circle_path([0.0, -0.1, 0.0], body.groups["end_x0"].center_m, [0.0, 0.0, 1.0],
+                           7.0)
     return assemble((upper, lower, mass), (
         rows.coincide("elbow", rows.group_point(upper, "end_xL"),
                       rows.group_point(lower, "end_x0")),

@@ -19,7 +19,8 @@ import numpy as np
 from gcms_fenicsx.dynamics.constraints.joints import RowInfo, independent_rows
 from gcms_fenicsx.dynamics.system.members import Flexible, Member
 from gcms_fenicsx.dynamics.system.rigid import Rigid, rigidity
-from gcms_fenicsx.dynamics.system.rows import Parts, Row
+from gcms_fenicsx.dynamics.system import checks
+from gcms_fenicsx.dynamics.system.rows import DrivenRow, FixedPoint, LinearRow, Parts, Row
 
 
 class AssemblyError(ValueError):
@@ -99,6 +100,7 @@ class Assembly:
         return max(m.size_m for m in self.members)
 
     def member(self, name: str) -> Member:
+        checks.known("member", name, "the assembly", self.offsets)
         return next(m for m in self.members if m.name == name)
 
     def parts(self, q: np.ndarray) -> Parts:
@@ -107,6 +109,11 @@ class Assembly:
 
     def _kept(self, per_joint: list[np.ndarray]) -> np.ndarray:
         return np.array([per_joint[j][k] for j, k in self.kept]).reshape(len(self.kept))
+
+    def targets(self, t: float) -> np.ndarray:
+        """d(t) with g = C q − d(t), for linear rows (:attr:`constant`): the start values moved
+        by the paths."""
+        return self.start_values + self._kept([row.moved(t) for row in self.joints])
 
     def residual(self, q: np.ndarray, t: float) -> np.ndarray:
         """g(q, t) of the kept rows."""
@@ -158,16 +165,51 @@ def assemble(members: tuple[Member, ...], joints: tuple[Row, ...],
     # the rigidity rows first: a joint's row they imply is the one dropped, never theirs
     joints = tuple(rigidity(m) for m in members if isinstance(m, Rigid)) + tuple(joints)
     q_start = np.concatenate([m.q_start for m in members])
+    _check_gaps(members, offsets, joints, q_start)
     every = tuple((j, k) for j, row in enumerate(joints) for k in range(len(row.axes)))
     full = _build(members, offsets, joints, every, q_start, gravity)
     keep = list(range(len(every)))
     if every:
         inverse = BlockDiagonal(tuple((offsets[m.name], m.mass_solver()) for m in members))
-        keep, _ = independent_rows(full.matrix, full.mass, inverse.dot, keep)
+        prescribed = [i for i, (j, _) in enumerate(every) if _prescribed(joints[j])]
+        order = [i for i in keep if i not in prescribed] + prescribed
+        keep, _ = independent_rows(full.matrix, full.mass, inverse.dot, order)
+        for i in prescribed:
+            if i not in keep:
+                raise AssemblyError(
+                    f"joint {joints[every[i][0]].joint!r}: the motion it prescribes is held by "
+                    "other joints already (its row is implied by theirs): a drive or a path "
+                    "must be the only joint holding what it moves")
     infos = [info for row in joints for info in row.infos()]
     kept = _build(members, offsets, joints, tuple(every[i] for i in keep), q_start, gravity)
     return replace(kept, rows=tuple(infos[i] for i in keep),
                    dropped=tuple(info for i, info in enumerate(infos) if i not in keep))
+
+
+def _prescribed(row: Row) -> bool:
+    """A row that moves with time (a drive's, a moving path's)."""
+    path = getattr(row, "path", None)
+    return isinstance(row, DrivenRow) or not (path is None or isinstance(path, FixedPoint))
+
+
+#: Two points of a coincidence start together to this fraction of the largest member's size
+#: (or 1e-9 m): the rows hold them where they start, so a gap would be kept, not closed.
+GAP_TOLERANCE = 1e-6
+
+
+def _check_gaps(members: tuple[Member, ...], offsets: dict[str, slice],
+                joints: tuple[Row, ...], q_start: np.ndarray) -> None:
+    """AssemblyError for a coincidence whose points (or point and path) do not start together."""
+    parts = {name: q_start[where].reshape(-1, 3) for name, where in offsets.items()}
+    tolerance = 1e-9 + GAP_TOLERANCE * max(m.size_m for m in members)
+    for row in joints:
+        if isinstance(row, LinearRow) and row.meets:
+            gap = row.gap(parts)
+            if np.linalg.norm(gap) > tolerance:
+                raise AssemblyError(
+                    f"joint {row.joint!r}: its points are {(np.round(gap, 9) + 0.0).tolist()} m apart "
+                    f"at the start (tolerance {tolerance:.1e} m); a coincidence holds them where "
+                    "they start, so place the members (or the path) where they meet")
 
 
 def _build(members: tuple[Member, ...], offsets: dict[str, slice], joints: tuple[Row, ...],
@@ -185,7 +227,7 @@ def _build(members: tuple[Member, ...], offsets: dict[str, slice], joints: tuple
         member_rows[m.name] = MemberRows(np.array([r[0] for r in rows], dtype=int),
                                          np.array([r[1] for r in rows]).reshape(len(rows), width),
                                          tuple(r[2] for r in rows))
-    g = np.zeros(3) if gravity is None else np.asarray(gravity, float)
+    g = np.zeros(3) if gravity is None else checks.vector("gravity (m/s²)", gravity)
     built = Assembly(members=tuple(members), offsets=offsets, joints=tuple(joints), kept=kept,
                      rows=(), dropped=(), q_start=q_start, gravity_force=_gravity(members, g),
                      member_rows=member_rows, start_values=np.zeros(len(kept)))

@@ -39,6 +39,8 @@ from typing import Callable
 
 import numpy as np
 
+from gcms_fenicsx.dynamics.system import checks
+
 CYCLE_DEG = 720.0
 BAR = 1e5
 
@@ -97,7 +99,19 @@ def petrol_full_load(compression_ratio: float = 10.5, crank_rod: float = 0.3,
                      exhaust_pa: float = 1.1 * BAR, spark_deg: float = -15.0,
                      burn_deg: float = 40.0, pressure_ratio: float = 4.0,
                      exhaust_opens_deg: float = 130.0, step_deg: float = 0.5) -> PressureCurve:
-    """The built-in full-load petrol curve (module docstring), tabulated every ``step_deg``."""
+    """The built-in full-load petrol curve (module docstring), tabulated every ``step_deg``;
+    ValueError naming a keyword outside what the model means."""
+    if not compression_ratio > 1:
+        raise ValueError(f"compression_ratio must be > 1, got {compression_ratio!r}")
+    checks.within("crank_rod (crank radius / rod length)", crank_rod, 1e-3, 0.999)
+    checks.within("polytropic", polytropic, 1.0, 1.67)
+    checks.positive("intake_pa", intake_pa)
+    checks.positive("exhaust_pa", exhaust_pa)
+    checks.within("spark_deg (before TDC: negative)", spark_deg, -90.0, 0.0)
+    checks.within("burn_deg", burn_deg, 1.0, 180.0)
+    checks.within("pressure_ratio", pressure_ratio, 1.0, 20.0)
+    checks.within("exhaust_opens_deg", exhaust_opens_deg, 90.0, 179.0)
+    checks.within("step_deg", step_deg, 1e-3, 10.0)
     phi = np.arange(0.0, CYCLE_DEG, step_deg)
     bdc = volume_ratio(np.array([180.0]), compression_ratio, crank_rod)[0]
     polytrope = intake_pa * (bdc / volume_ratio(phi, compression_ratio, crank_rod)) ** polytropic
@@ -114,7 +128,7 @@ def petrol_full_load(compression_ratio: float = 10.5, crank_rod: float = 0.3,
 def firing_angles(order: tuple[int, ...], first_deg: float = 0.0) -> dict[int, float]:
     """Crankshaft angle (degrees) of each cylinder's firing TDC: cylinder ``order[k]`` fires
     k · 720°/n after ``order[0]`` (an even-firing engine; 1-3-4-2 for an inline four)."""
-    if sorted(order) != list(range(1, len(order) + 1)):
+    if not order or sorted(order) != list(range(1, len(order) + 1)):
         raise ValueError(f"a firing order names every cylinder 1 … n once, got {list(order)}")
     spacing = CYCLE_DEG / len(order)
     return {cylinder: math.fmod(first_deg + k * spacing, CYCLE_DEG)
@@ -139,6 +153,14 @@ class Cylinder:
     firing_deg: float
     curve: PressureCurve
 
+    def __post_init__(self) -> None:
+        checks.positive(f"cylinder {self.piston!r}: bore_m", self.bore_m)
+        unit = checks.vector(f"cylinder {self.piston!r}: towards_crank", self.towards_crank)
+        if abs(np.linalg.norm(unit) - 1.0) > 1e-9:
+            raise ValueError(f"cylinder {self.piston!r}: towards_crank must be a unit vector, "
+                             f"got {self.towards_crank!r} (length {np.linalg.norm(unit):g})")
+        object.__setattr__(self, "towards_crank", unit)
+
 
 def cylinder_loads(offsets: dict[str, slice], dofs: int, cylinders: tuple[Cylinder, ...],
                    crank_angle_deg: Callable[[float], float]) -> Callable[[float], np.ndarray]:
@@ -146,6 +168,7 @@ def cylinder_loads(offsets: dict[str, slice], dofs: int, cylinders: tuple[Cylind
     at φ = θ(t) − its firing angle, θ the crankshaft's angle (degrees) at t (``stepper.Loads``:
     a driven crankshaft's drive angle, or Ω t)."""
     for c in cylinders:
+        checks.known("member", c.piston, "the assembly", offsets)
         if offsets[c.piston].stop - offsets[c.piston].start != 3:
             raise ValueError(f"cylinder {c.piston!r}: a piston is a point mass of the assembly")
 

@@ -10,6 +10,7 @@ the relative drift is its largest magnitude over the largest of T + V and the tw
 """
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 from typing import Callable
@@ -17,6 +18,7 @@ from typing import Callable
 import numpy as np
 
 from gcms_fenicsx.dynamics.stepping.state import State
+from gcms_fenicsx.dynamics.system import checks
 from gcms_fenicsx.dynamics.system.stepper import AssemblyStepper
 from gcms_fenicsx.runtime.progress import Progress, quiet
 
@@ -81,11 +83,15 @@ class _Energy:
 def march(stepper: AssemblyStepper, start: tuple[State, float], end_time_s: float,
           every: int = 1, probes: dict[str, Probe] | None = None,
           progress: Progress = quiet) -> AssemblyRun:
-    """Step from ``start`` (``stepper.initial_state``'s state and velocity change) to
-    ``end_time_s``, recording every ``every``-th step (and the last) with ``probes``."""
+    """Step from ``start`` (``stepper.initial_state``'s state and velocity change) to the first
+    step at or beyond ``end_time_s``, recording every ``every``-th step (and the last) with
+    ``probes``."""
     state, change = start
     probes = probes or {}
-    steps = int(round(end_time_s / stepper.h))
+    # the run ends at the first step at or beyond the end time, as a scene's (Scene.steps)
+    steps = max(1, math.ceil(checks.positive("end_time_s (s)", end_time_s) / stepper.h - 1e-9))
+    if int(every) != every or every < 1:
+        raise ValueError(f"every must be a whole number ≥ 1 of steps, got {every!r}")
     energy = _Energy(stepper)
     _, states = stepper.internal(state.q)
     rows = [_row(state, 0, energy.terms(state, states), probes)]

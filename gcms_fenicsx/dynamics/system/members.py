@@ -23,6 +23,7 @@ from gcms_fenicsx.dynamics.bodies.body import Body
 from gcms_fenicsx.dynamics.bodies.corotated import elastic_state
 from gcms_fenicsx.dynamics.constraints.factorization import Factorize, Solve, dense_factorization
 from gcms_fenicsx.dynamics.stepping.state import Elastic
+from gcms_fenicsx.dynamics.system import checks
 from gcms_fenicsx.numerics.rotation import polar
 
 
@@ -39,8 +40,8 @@ def placed_coordinates(body: Body, rotation: np.ndarray | None = None,
                        position: np.ndarray | None = None) -> np.ndarray:
     """q of the undeformed body turned by R₀ and moved by x₀ (a node at X goes to x₀ + R₀ X):
     Q = Q0 R₀ᵀ + k1 x₀ᵀ, since F k1 = 1."""
-    R0 = np.eye(3) if rotation is None else np.asarray(rotation, float)
-    x0 = np.zeros(3) if position is None else np.asarray(position, float)
+    R0 = np.eye(3) if rotation is None else checks.rotation("rotation", rotation)
+    x0 = np.zeros(3) if position is None else checks.vector("position", position)
     return (body.q0.reshape(-1, 3) @ R0.T + np.outer(body.unit, x0)).ravel()
 
 
@@ -105,7 +106,8 @@ class Flexible:
         units = np.zeros((body.field_count, 3, k, 3))
         for l in range(3):
             units[:, l, :, l] = vectors.T
-        solved = np.asarray(inverse(units.reshape(body.dofs, 3 * k))).reshape(-1, 3, k, 3)
+        solved = (np.asarray(inverse(units.reshape(body.dofs, 3 * k))).reshape(units.shape)
+                  if k else units)
 
         def at(state: Any) -> Iteration:
             R = state.rotation
@@ -128,6 +130,12 @@ class PointMass:
     name: str
     mass: float
     position: np.ndarray
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "mass", checks.positive(f"point mass {self.name!r}: mass (kg)",
+                                                         self.mass))
+        object.__setattr__(self, "position",
+                           checks.vector(f"point mass {self.name!r}: position (m)", self.position))
 
     @property
     def dofs(self) -> int:

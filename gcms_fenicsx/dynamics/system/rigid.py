@@ -22,6 +22,7 @@ from typing import Mapping
 import numpy as np
 
 from gcms_fenicsx.dynamics.bodies.body import Body, GroupRows, make_body
+from gcms_fenicsx.dynamics.system import checks
 from gcms_fenicsx.dynamics.system.members import Flexible, placed_coordinates
 from gcms_fenicsx.dynamics.system.rows import BilinearRow, Term
 
@@ -36,15 +37,20 @@ def rigid_body(mass_kg: float, center_m: np.ndarray, inertia_kgm2: np.ndarray,
     """The four-field body of a rigid body (module docstring) with named ``points`` (its own
     coordinates, m) as groups; ValueError for a mass ≤ 0 or an inertia tensor that is not
     symmetric positive definite with the triangle inequalities (a body's)."""
-    c = np.asarray(center_m, float)
+    c = checks.vector("rigid body: center_m", center_m)
+    mass_kg = checks.positive("rigid body: mass_kg", mass_kg)
     inertia = np.asarray(inertia_kgm2, float)
-    if not mass_kg > 0:
-        raise ValueError(f"a rigid body's mass must be > 0 kg, got {mass_kg}")
+    if inertia.shape != (3, 3) or not np.isfinite(inertia).all():
+        raise ValueError(f"rigid body: inertia_kgm2 must be a 3 × 3 tensor of finite numbers "
+                         f"(kg m², about the centre of mass), got {inertia_kgm2!r}")
     principal = np.linalg.eigvalsh(0.5 * (inertia + inertia.T))
-    if (inertia.shape != (3, 3) or not np.allclose(inertia, inertia.T)
-            or not principal[0] > 0 or principal[2] > principal[0] + principal[1] + 1e-12 * principal[2]):
-        raise ValueError("a rigid body's inertia tensor must be symmetric with positive principal "
-                         f"moments, each at most the sum of the others; got {principal.tolist()}")
+    if (not np.allclose(inertia, inertia.T, rtol=1e-12, atol=1e-15 * np.abs(inertia).max())
+            or not principal[0] > 0
+            or not principal[2] < (1.0 - 1e-9) * (principal[0] + principal[1])):
+        raise ValueError("rigid body: inertia_kgm2 must be symmetric with positive principal "
+                         "moments, each less than the sum of the other two (a body that extends "
+                         f"in all three directions); got principal moments {principal.tolist()}")
+    points = {name: checks.vector(f"rigid body: point {name!r}", x) for name, x in points.items()}
     second = 0.5 * np.trace(inertia) * np.eye(3) - inertia + mass_kg * np.outer(c, c)
     gram = np.block([[np.array([[mass_kg]]), mass_kg * c[None, :]],
                      [mass_kg * c[:, None], second]])

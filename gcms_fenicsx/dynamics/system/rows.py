@@ -31,12 +31,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Callable, Mapping
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
 from gcms_fenicsx.config.scene import Drive
 from gcms_fenicsx.dynamics.constraints.joints import RowInfo, plane_basis
+from gcms_fenicsx.dynamics.system import checks
 from gcms_fenicsx.dynamics.system.members import Flexible, PointMass
 from gcms_fenicsx.numerics.group_geometry import MIN_LEVER, lever
 
@@ -57,9 +58,18 @@ class Point:
     label: str
 
 
+def _group(member: Flexible, group: str) -> Any:
+    """The member's node group (a refusal naming the groups it has)."""
+    if not isinstance(member, Flexible):
+        raise ValueError(f"{member.name!r} is a point mass: it has no node groups (its point "
+                         "is rows.mass_point)")
+    checks.known("group", group, f"member {member.name!r}", member.body.groups)
+    return member.body.groups[group]
+
+
 def group_point(member: Flexible, group: str) -> Point:
     """The weighted mean position of a node group of a flexible member."""
-    return Point(member.name, member.body.groups[group].position, f"{member.name}.{group}")
+    return Point(member.name, _group(member, group).position, f"{member.name}.{group}")
 
 
 def mass_point(member: PointMass) -> Point:
@@ -123,6 +133,7 @@ class LinearRow(Row):
 
     units: tuple[np.ndarray, ...] = ()
     path: Path | None = None
+    meets: bool = False      # a coincidence: its points (or point and path) start together
     constant = True
 
     def directions(self, Q: Parts, t: float) -> tuple[np.ndarray, ...]:
@@ -131,9 +142,18 @@ class LinearRow(Row):
     def value(self, Q: Parts, t: float) -> np.ndarray:
         g = sum((u * term.values(Q[term.member])).sum(axis=1)
                 for term, u in zip(self.terms, self.units))
-        if self.path is not None:
-            g = g - self.axes @ (self.path(t)[0] - self.path(0.0)[0])
-        return np.asarray(g)
+        return np.asarray(g) - self.moved(t)
+
+    def gap(self, Q: Parts) -> np.ndarray:
+        """How far apart a coincidence's points (or its point and its path) are (m)."""
+        anchor = self.axes @ self.path(0.0)[0] if self.path is not None else 0.0
+        return self.value(Q, 0.0) - anchor
+
+    def moved(self, t: float) -> np.ndarray:
+        """u_i · (p(t) − p(0)): how far the path has moved the rows' targets (zero without)."""
+        if self.path is None:
+            return np.zeros(len(self.axes))
+        return self.axes @ (self.path(t)[0] - self.path(0.0)[0])
 
     def rates(self, Q: Parts, V: Parts, t: float) -> tuple[np.ndarray, np.ndarray]:
         if self.path is None:
@@ -198,30 +218,47 @@ def _along(point: Point, sign: float, count: int) -> Term:
 
 
 def coincide(joint: str, a: Point, b: Point | Path) -> LinearRow:
-    """x_a − x_b = const along x, y, z; or x_a − p(t) = const for a path p."""
+    """x_a = x_b, or x_a = p(t) for a path p (``assemble`` refuses points that do not start
+    together: the rows hold them where they start)."""
     if isinstance(b, Point):
+        if b.member == a.member and np.array_equal(a.vector, b.vector):
+            raise ValueError(f"joint {joint!r}: {a.label} is joined to itself")
         return LinearRow(joint, (_along(a, 1.0, 3), _along(b, -1.0, 3)), AXES.copy(), "force",
-                         units=(AXES, AXES))
-    return LinearRow(joint, (_along(a, 1.0, 3),), AXES.copy(), "force", units=(AXES,), path=b)
+                         units=(AXES, AXES), meets=True)
+    _check_path(joint, b)
+    return LinearRow(joint, (_along(a, 1.0, 3),), AXES.copy(), "force", units=(AXES,), path=b,
+                     meets=True)
+
+
+def _check_path(joint: str, path: Path) -> None:
+    """A path gives three finite 3-vectors (p, ṗ, p̈)."""
+    try:
+        values = [np.asarray(x, float) for x in path(0.0)]
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"joint {joint!r}: its path must map t to (p, ṗ, p̈): {exc}") from exc
+    if len(values) != 3 or any(v.shape != (3,) or not np.isfinite(v).all() for v in values):
+        raise ValueError(f"joint {joint!r}: its path must map t to three finite 3-vectors "
+                         "(p, ṗ, p̈)")
 
 
 def on_line(joint: str, a: Point, direction: np.ndarray) -> LinearRow:
     """x_a stays on the line through its start along ``direction``: the two rows n_k · x_a."""
-    axis = np.asarray(direction, float) / np.linalg.norm(direction)
+    axis = _unit(joint, direction)
     normals = np.array(plane_basis(axis))
     return LinearRow(joint, (_along(a, 1.0, 2),), normals, "force", units=(normals,))
 
 
-def _unit(axis: np.ndarray) -> np.ndarray:
-    return np.asarray(axis, float) / np.linalg.norm(axis)
+def _unit(joint: str, axis: np.ndarray) -> np.ndarray:
+    return checks.direction(f"joint {joint!r}: its axis", axis)
 
 
 def _lever(joint: str, member: Flexible, group: str, c: np.ndarray,
            turning: np.ndarray | None) -> np.ndarray:
     """A direction d (in the assembly) the group extends in, ⊥ c (``lever``; spans are of the
     undeformed body, turned by the member's placement)."""
+    span = _group(member, group).span
     R0 = member.placement
-    d = lever(member.body.groups[group].span, R0.T @ c,
+    d = lever(span, R0.T @ c,
               None if turning is None else R0.T @ turning)
     if d is None:
         raise ValueError(f"joint {joint!r}: group {group!r} of {member.name!r} cannot hold a "
@@ -233,14 +270,14 @@ def _lever(joint: str, member: Flexible, group: str, c: np.ndarray,
 def _group_vector(member: Flexible, group: str, d: np.ndarray) -> np.ndarray:
     """v with Qᵀ v = L_G d̄, d̄ = R₀ᵀ d the direction d of the assembly in the body's own
     coordinates (L_G maps those; it is R₀ at the start)."""
-    return member.body.groups[group].affine @ (member.placement.T @ d)
+    return _group(member, group).affine @ (member.placement.T @ d)
 
 
 def keep_axis(joint: str, member: Flexible, group: str, axis: np.ndarray) -> LinearRow:
     """The group's direction ``axis`` stays along it: for c ⊥ axis, the rotation about c is the
     row u · L_G d with d = axis (turning about the axis leaves it alone: ``lever``) and u = c × d,
     so its multiplier is the moment about c. ValueError if the group cannot hold it."""
-    e = _unit(axis)
+    e = _unit(joint, axis)
     levers = [(c, _lever(joint, member, group, c, e)) for c in plane_basis(e)]
     vectors = np.array([_group_vector(member, group, d) for _, d in levers])
     return LinearRow(joint, (Term(member.name, vectors),),
@@ -253,7 +290,9 @@ def drive(joint: str, member: Flexible, group: str, axis: np.ndarray, prescribed
     """The group's rotation about the fixed ``axis`` is the drive's angle θ(t): the row
     u(t) · L_G d, d ⊥ axis in the group, u₀ = axis × d turned by θ(t) (its multiplier the drive
     moment, N·m; ``joints``: sin(φ − θ) for a rotation φ)."""
-    e = _unit(axis)
+    e = _unit(joint, axis)
+    if not isinstance(prescribed, Drive):
+        raise ValueError(f"joint {joint!r}: its drive must be a Drive, got {prescribed!r}")
     d = _lever(joint, member, group, e, None)
     return DrivenRow(joint, (Term(member.name, _group_vector(member, group, d)[None, :]),),
                      e[None, :], "moment",
@@ -267,10 +306,10 @@ def align_axes(joint: str, a: Flexible, group_a: str, b: Flexible, group_b: str,
     and, with p or s the axis itself, is blind to the relative turning about it: p = e,
     s = c × e where a's group extends along e and b's along s, else s = e, p = e × c. Two rows;
     ValueError naming the groups when neither pair lies in them."""
-    e = _unit(axis)
+    e = _unit(joint, axis)
 
     def within(member: Flexible, group: str, d: np.ndarray) -> bool:
-        span = member.body.groups[group].span
+        span = _group(member, group).span
         return bool(np.linalg.norm(span.T @ (member.placement.T @ d)) >= 1.0 - MIN_LEVER)
 
     pairs = []
@@ -294,9 +333,12 @@ def align_axes(joint: str, a: Flexible, group_a: str, b: Flexible, group_b: str,
 def circle_path(center: np.ndarray, start: np.ndarray, axis: np.ndarray, rate: float) -> Path:
     """A point turning about ``axis`` through ``center`` at ``rate`` rad/s from ``start``: a
     crank pin driven at constant speed (Rodrigues' rotation of r = start − center)."""
-    e = _unit(axis)
-    c = np.asarray(center, float)
-    r = np.asarray(start, float) - c
+    e = checks.direction("circle_path: axis", axis)
+    c = checks.vector("circle_path: center (m)", center)
+    r = checks.vector("circle_path: start (m)", start) - c
+    rate = float(rate)
+    if not np.isfinite(rate):
+        raise ValueError(f"circle_path: rate must be a finite number (rad/s), got {rate!r}")
     along, across, normal = e * (e @ r), np.cross(e, r), r - e * (e @ r)
 
     def path(t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -308,7 +350,16 @@ def circle_path(center: np.ndarray, start: np.ndarray, axis: np.ndarray, rate: f
     return path
 
 
-def fixed_point(x: np.ndarray) -> Path:
-    """A point that does not move (the ground)."""
-    x = np.asarray(x, float)
-    return lambda t: (x, np.zeros(3), np.zeros(3))
+@dataclass(frozen=True)
+class FixedPoint:
+    """A point that does not move (the ground): a path that prescribes no motion."""
+
+    x: np.ndarray
+
+    def __call__(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return self.x, np.zeros(3), np.zeros(3)
+
+
+def fixed_point(x: np.ndarray) -> FixedPoint:
+    """A point of the ground."""
+    return FixedPoint(checks.vector("fixed_point (m)", x))

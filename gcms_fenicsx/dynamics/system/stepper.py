@@ -31,7 +31,9 @@ import numpy as np
 from gcms_fenicsx.dynamics.stepping.alpha import AlphaParameters, newton_coefficients, step_matrices
 from gcms_fenicsx.dynamics.stepping.errors import IntegrationError
 from gcms_fenicsx.dynamics.stepping.state import State
+from gcms_fenicsx.dynamics.system import checks
 from gcms_fenicsx.dynamics.system.assembly import Assembly, BlockDiagonal
+from gcms_fenicsx.numerics.rotation import InvertedBodyError
 
 #: t ↦ external force on the assembly's coordinates (N,), besides gravity (gas forces on
 #: pistons: ``gas_pressure.cylinder_loads``).
@@ -47,6 +49,14 @@ class StepSettings:
     tolerance: float = 1e-10
     max_iterations: int = 25
 
+    def __post_init__(self) -> None:
+        checks.positive("time_step_s (s)", self.time_step_s)
+        checks.within("rho_inf", self.rho_inf, 0.0, 1.0)
+        checks.within("tolerance", self.tolerance, 1e-15, 1e-3)
+        if int(self.max_iterations) != self.max_iterations or self.max_iterations < 1:
+            raise ValueError(f"max_iterations must be a whole number ≥ 1, got "
+                             f"{self.max_iterations!r}")
+
 
 class AssemblyStepper:
     """Steps of one assembly (module docstring); everything constant is prepared here."""
@@ -54,6 +64,11 @@ class AssemblyStepper:
     def __init__(self, assembly: Assembly, settings: StepSettings,
                  loads: Loads | None = None) -> None:
         self.assembly, self.settings, self.loads = assembly, settings, loads
+        if loads is not None:
+            f = np.asarray(loads(0.0))
+            if f.shape != (assembly.dofs,) or not np.isfinite(f).all():
+                raise ValueError(f"loads(t) must give {assembly.dofs} finite numbers (the "
+                                 f"assembly's coordinates), gave shape {f.shape} at t = 0")
         self.h = settings.time_step_s
         p = AlphaParameters.from_rho_inf(settings.rho_inf)
         beta_p, _ = newton_coefficients(p, self.h)
@@ -107,13 +122,20 @@ class AssemblyStepper:
         lam = s.lam.copy()
         a, mass, update = self.assembly, self.mass, self.update
         f_ext = self.external(t1)
+        targets = a.targets(t1) if self.C is not None else None
         total, tol = a.total_mass_kg, self.tolerance_m
         previous, delta = math.inf, math.inf
         for iteration in range(1, self.settings.max_iterations + 1):
-            f_int, states = self.internal(q)
+            try:
+                f_int, states = self.internal(q)
+            except InvertedBodyError as exc:
+                raise IntegrationError(
+                    f"Newton diverged at t = {t1:.6g} s: iteration {iteration} reached a state "
+                    f"whose affine map has {exc.numbers}; reduce the time step (now "
+                    f"{self.h:g} s) or the loads", t1) from exc
             C = self.C if self.C is not None else a.jacobian(q, t1)
             r = mass.dot(acc) + f_int - f_ext + C.T.dot(lam)
-            g = a.residual(q, t1)
+            g = C.dot(q) - targets if targets is not None else a.residual(q, t1)
             if iteration == 1:
                 solve, W = self.linearise(states, q, t1)
                 coupling = np.linalg.inv(C.dot(W)) if len(C) else np.zeros((0, 0))
@@ -144,7 +166,8 @@ def initial_state(stepper: AssemblyStepper, velocity: np.ndarray | None = None
     change √(Δq̇ᵀ Mr Δq̇ / q̇ᵀ Mr q̇) (0 when none was needed)."""
     a = stepper.assembly
     q = a.q_start.copy()
-    v = np.zeros_like(q) if velocity is None else np.asarray(velocity, float).copy()
+    v = (np.zeros_like(q) if velocity is None
+         else checks.vector("velocity (the assembly's q̇ at t = 0)", velocity, a.dofs).copy())
     C, mass = a.matrix, a.mass
     inverse = BlockDiagonal(tuple((a.offsets[m.name], m.mass_solver()) for m in a.members))
     f_int, _ = stepper.internal(q)
