@@ -30,6 +30,35 @@ STANDALONE_DYNAMICS = ("tests/test_standalone_dynamics.py::"
                        "test_dynamics_tests_pass_without_the_finite_element_stack")
 
 
+#: Compiles the step kernel into the shared cache while the test processes start
+#: (``pytest_configure``): they wait for it (``kernel.compile_lock``) instead of each compiling
+#: it at once (4 minutes of both cores on a machine whose LLVM is slow).
+WARM_KERNEL = ("from gcms_fenicsx.dynamics import parse_scene, read_reduced, simulate; "
+               "import sys; simulate(read_reduced(sys.argv[1]), parse_scene({'end_time': 2e-4, "
+               "'time_step': 1e-4, 'solver': {'kernel': 'numba'}}))")
+
+
+def pytest_configure(config) -> None:
+    """In the session's first process (not an xdist worker, not the blocked child of
+    tests/dynamics), compile the kernel in the background where Numba is there."""
+    if hasattr(config, "workerinput") or os.environ.get(NO_FE_STACK):
+        return
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        return
+    config._warm_kernel = subprocess.Popen(
+        [sys.executable, "-c", WARM_KERNEL, str(REPO / "tests" / "data" / "beam6.h5")],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=REPO)
+
+
+def pytest_unconfigure(config) -> None:
+    warm = getattr(config, "_warm_kernel", None)
+    if warm is not None and warm.poll() is None:
+        warm.kill()
+        warm.wait()
+
+
 def mpirun(args: list[str], n: int = 2, timeout: float = 600) -> subprocess.CompletedProcess:
     """Run ``python ARGS`` under ``mpirun -n N`` (as root too) and return the finished process."""
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",

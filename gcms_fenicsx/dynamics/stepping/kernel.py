@@ -9,7 +9,9 @@ SceneError says why it cannot); "numpy" never compiles. The environment variable
 Numba compiles the kernel once per machine and caches it on disk (:func:`cache_folder`): beside
 the package, in ``compiled/__pycache__/kernel-<digest>``; under ``$NUMBA_CACHE_DIR`` if that is
 set; in ``$XDG_CACHE_HOME/gcms-fenicsx`` (else ``~/.cache``) where the package's folder is not
-writable. The run says whether it compiled and how long it took.
+writable. The run says whether it compiled and how long it took. Processes that start at once
+compile it once: the first holds a lock on the cache folder (:func:`compile_lock`) while it
+compiles, the others wait for it and load what it cached.
 """
 from __future__ import annotations
 
@@ -17,6 +19,8 @@ import hashlib
 import os
 import shutil
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -111,6 +115,29 @@ def cache_folder() -> Path:
     return home / "gcms-fenicsx" / name
 
 
+@contextmanager
+def compile_lock() -> Iterator[None]:
+    """An exclusive lock (``flock``) on ``<cache folder>.lock``, held while a process compiles
+    or loads the kernel: a second process waits, then finds the cache the first wrote. The
+    lock goes with the process that holds it, however it ends; where no lock file can be made
+    (a read-only place), no lock is taken."""
+    import fcntl
+
+    path = cache_folder().with_suffix(".lock")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handle = open(path, "a")
+    except OSError:
+        yield
+        return
+    with handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
 @lru_cache(maxsize=1)
 def kernel_module() -> ModuleType:
     """``compiled.step``, its functions cached in :func:`cache_folder` (older kernels' folders
@@ -140,20 +167,22 @@ class CompiledStepper:
         self.last = np.zeros(3)          # last step's iterations, its energy; iterations sum
 
     def warm_up(self, recorder: Any, state: State) -> tuple[float, bool | None]:
-        """Compile the kernel (or load it from the cache) by a stretch of no steps: (seconds,
-        whether it came from the cache; None if this process had it already). A cache that
-        does not load is removed and the kernel compiled again; a second failure is raised."""
+        """Compile the kernel (or load it from the cache) by a stretch of no steps, under
+        :func:`compile_lock`: (seconds, whether it came from the cache; None if this process
+        had it already). A cache that does not load is removed and the kernel compiled again;
+        a second failure is raised."""
         run = self.compiled.run_stretch
         stats = run.stats
         hits, misses = sum(stats.cache_hits.values()), sum(stats.cache_misses.values())
         start = time.perf_counter()
         args = (self.data, recorder.raw, state.Z.copy(), state.lam.copy(), state.t, 0, 0,
                 self.integrator.h, self.policy, self.last)
-        try:
-            run(*args)
-        except Exception:        # a damaged cache fails to load: drop it and compile afresh
-            shutil.rmtree(cache_folder(), ignore_errors=True)
-            run(*args)
+        with compile_lock():
+            try:
+                run(*args)
+            except Exception:    # a damaged cache fails to load: drop it and compile afresh
+                shutil.rmtree(cache_folder(), ignore_errors=True)
+                run(*args)
         seconds = time.perf_counter() - start
         if sum(stats.cache_hits.values()) > hits:
             return seconds, True
