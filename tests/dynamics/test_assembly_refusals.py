@@ -95,6 +95,9 @@ def test_bad_inputs_are_refused_naming_them(beam6_body, make, says):
 
 
 def test_bad_run_settings_are_refused(hinged):
+    """Settings of a run that cannot be (a velocity of the wrong length, a negative end time, a
+    record spacing of 0, loads of the wrong shape, an unknown member, a step in µs given in s),
+    and the end of a run at the first step at or past its end time."""
     rod, joints = hinged
     a = assemble((rod,), joints)
     stepper = AssemblyStepper(a, StepSettings(1e-3))
@@ -110,6 +113,9 @@ def test_bad_run_settings_are_refused(hinged):
     with pytest.raises(ValueError, match="has no member 'nope'"):
         a.member("nope")
     assert march(stepper, start, 0.0025).steps == 3          # the first step at or past it
+    with pytest.raises(IntegrationError, match="member 'rod': its iteration matrix .* "
+                                               "time_step_s = 20 s: the step is far too large"):
+        AssemblyStepper(a, StepSettings(20.0))
 
 
 def test_a_free_member_floats_and_a_diverging_newton_says_when(beam6_body, hinged):

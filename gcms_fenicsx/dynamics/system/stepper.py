@@ -29,7 +29,7 @@ from typing import Any, Callable
 import numpy as np
 
 from gcms_fenicsx.dynamics.stepping.alpha import AlphaParameters, newton_coefficients, step_matrices
-from gcms_fenicsx.dynamics.stepping.errors import IntegrationError
+from gcms_fenicsx.dynamics.stepping.errors import IntegrationError, SingularMatrixError
 from gcms_fenicsx.dynamics.stepping.state import State
 from gcms_fenicsx.dynamics.system import checks
 from gcms_fenicsx.dynamics.system.assembly import Assembly, BlockDiagonal
@@ -73,12 +73,25 @@ class AssemblyStepper:
         p = AlphaParameters.from_rho_inf(settings.rho_inf)
         beta_p, _ = newton_coefficients(p, self.h)
         self.predictor, self.update = step_matrices(p, self.h)
-        self.solvers = [(assembly.offsets[m.name], m,
-                         m.iteration(beta_p, assembly.member_rows[m.name].vectors))
+        self.solvers = [(assembly.offsets[m.name], m, self._iteration(m, beta_p))
                         for m in assembly.members]
         self.mass = assembly.mass
         self.C = assembly.matrix if assembly.constant else None
         self.tolerance_m = settings.tolerance * assembly.size_m
+
+    def _iteration(self, member: Any, beta_p: float) -> Any:
+        """The member's Newton solves; a singular S₀ = β' Mr + Kr explained: β' = O(1/h²) makes
+        it Mr's scale for any sane h, so it is singular when h is far too large for the member
+        (its Mr and Kr are then of different orders, Kr's near-zero rigid part decides) or when
+        its Mr is."""
+        try:
+            return member.iteration(beta_p, self.assembly.member_rows[member.name].vectors)
+        except SingularMatrixError as exc:
+            raise IntegrationError(
+                f"member {member.name!r}: its iteration matrix β' Mr + Kr is singular "
+                f"({exc.numbers}) at time_step_s = {self.h:g} s: the step is far too large for "
+                "the member (a step in µs given in s?), or its reduced mass matrix is singular",
+                0.0) from exc
 
     def internal(self, q: np.ndarray) -> tuple[np.ndarray, list[Any]]:
         """f_int(q) (N,) and each member's elastic state (None for a point mass)."""
