@@ -26,9 +26,9 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-from scipy.linalg import eigh, null_space
+from scipy.linalg import null_space
 
-from gcms_fenicsx.dynamics.bodies.body import Body
+from gcms_fenicsx.dynamics.bodies.body import Body, mass_normalised_modes
 from gcms_fenicsx.dynamics.constraints.factorization import Factorize, dense_factorization
 from gcms_fenicsx.dynamics.stepping.state import State
 from gcms_fenicsx.dynamics.system import rows
@@ -135,13 +135,14 @@ def rigid_closed_form(t: np.ndarray, conrod_mass_kg: float, center_m: float,
     return {"slider_m": x3, "pin_force_n": np.stack([force_x, force_y], axis=1)}
 
 
-def rigid_reference(conrod: Body, t: np.ndarray) -> dict[str, np.ndarray]:
+def rigid_reference(conrod: Body, t: np.ndarray, pin: str = "end_x0") -> dict[str, np.ndarray]:
     """:func:`rigid_closed_form` for a rigid conrod with ``conrod``'s own mass, centre of mass
-    (its distance from the crank-pin face's centre) and moment of inertia about the crank pin's
-    axis, J_c,zz + m s² (J_c,zz = J_xx + J_yy of the second moment about the centre)."""
+    (its distance from the centre of the crank-pin group ``pin``) and moment of inertia about
+    the crank pin's axis, J_c,zz + m s² (J_c,zz = J_xx + J_yy of the second moment about the
+    centre)."""
     J = conrod.second_moment
     centre = float(np.linalg.norm(conrod.center_of_mass(conrod.q0)
-                                  - conrod.groups["end_x0"].center_m))
+                                  - conrod.groups[pin].center_m))
     inertia = float(J[0, 0] + J[1, 1]) + conrod.total_mass_kg * centre ** 2
     return rigid_closed_form(t, conrod.total_mass_kg, centre, inertia)
 
@@ -156,7 +157,7 @@ def pinned_bending_hz(conrod: Body) -> tuple[float, float]:
     held = [i for i, r in enumerate(a.rows) if r.joint != "guide"]
     N = null_space(a.matrix[held, :n])
     K, M = N.T @ np.asarray(conrod.stiffness) @ N, N.T @ np.asarray(conrod.mass) @ N
-    values, vectors = eigh(0.5 * (K + K.T), 0.5 * (M + M.T))
+    values, vectors = mass_normalised_modes(0.5 * (K + K.T), 0.5 * (M + M.T))
     found = []
     for value, vector in zip(values, vectors.T):
         u = np.asarray(conrod.node_fields @ (N @ vector).reshape(-1, 3))

@@ -112,17 +112,7 @@ class Constraints:
             return U
         U = U.copy()
         for i, drive, u, e_u, along in self.turning:
-            theta, rate, accel = drive.angle(t)
-            c, s = math.cos(theta), math.sin(theta)
-            if derivative == 0:
-                U[i] = c * u + s * e_u + (1.0 - c) * along
-                continue
-            turned_e_u = c * e_u + s * (along - u)
-            if derivative == 1:
-                U[i] = rate * turned_e_u
-            else:
-                U[i] = accel * turned_e_u + rate * rate * (along - (c * u + s * e_u
-                                                                    + (1.0 - c) * along))
+            U[i] = turned(u, e_u, along, drive.angle(t))[derivative]
         return U
 
     def unit_rows(self) -> np.ndarray:
@@ -170,6 +160,19 @@ class Constraints:
             return np.einsum("il,ilj->ij", U, self._row_units)
         return (self.row_vectors[:, :, None] * U[:, None, :]).reshape(self.count,
                                                                       3 * self.vectors.shape[1])
+
+
+def turned(u: np.ndarray, e_u: np.ndarray, along: np.ndarray,
+           angle: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(u(t), u̇, ü) of directions u (3,) or (m, 3) turned about e by θ(t) (``angle``: θ, θ̇,
+    θ̈), given e × u and e (e · u): Rodrigues' u(t) = cos θ u + sin θ (e × u) + (1 − cos θ)
+    e (e · u), u̇ = θ̇ e × u(t), ü = θ̈ e × u(t) + θ̇² (e (e · u) − u(t)), with e × u(t) =
+    cos θ (e × u) + sin θ (e (e · u) − u) (``Constraints.directions_at``)."""
+    theta, rate, accel = angle
+    c, s = math.cos(theta), math.sin(theta)
+    now = c * u + s * e_u + (1.0 - c) * along
+    turned_e_u = c * e_u + s * (along - u)
+    return now, rate * turned_e_u, accel * turned_e_u + rate * rate * (along - now)
 
 
 def plane_basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -90,6 +90,10 @@ class Assembly:
     def mass(self) -> BlockDiagonal:
         return BlockDiagonal(tuple((self.offsets[m.name], m.mass_dot) for m in self.members))
 
+    def mass_inverse(self) -> BlockDiagonal:
+        """Mr⁻¹, each member's factorised here (``mass_solver``)."""
+        return BlockDiagonal(tuple((self.offsets[m.name], m.mass_solver()) for m in self.members))
+
     @property
     def total_mass_kg(self) -> float:
         return float(sum(m.mass_kg for m in self.members))
@@ -170,10 +174,9 @@ def assemble(members: tuple[Member, ...], joints: tuple[Row, ...],
     full = _build(members, offsets, joints, every, q_start, gravity)
     keep = list(range(len(every)))
     if every:
-        inverse = BlockDiagonal(tuple((offsets[m.name], m.mass_solver()) for m in members))
         prescribed = [i for i, (j, _) in enumerate(every) if _prescribed(joints[j])]
         order = [i for i in keep if i not in prescribed] + prescribed
-        keep, _ = independent_rows(full.matrix, full.mass, inverse.dot, order)
+        keep, _ = independent_rows(full.matrix, full.mass, full.mass_inverse().dot, order)
         for i in prescribed:
             if i not in keep:
                 raise AssemblyError(

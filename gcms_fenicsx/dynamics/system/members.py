@@ -13,8 +13,7 @@ mass has three coordinates, its position.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import cached_property
-from functools import partial
+from functools import cached_property, partial
 from typing import Any, Callable, NamedTuple
 
 import numpy as np
@@ -25,7 +24,6 @@ from gcms_fenicsx.dynamics.constraints.factorization import Factorize, Solve, de
 from gcms_fenicsx.dynamics.stepping.state import Elastic
 from gcms_fenicsx.dynamics.system import checks
 from gcms_fenicsx.numerics.rotation import polar
-
 
 
 class Iteration(NamedTuple):
@@ -112,9 +110,9 @@ class Flexible:
         def at(state: Any) -> Iteration:
             R = state.rotation
 
-            def solve(y: np.ndarray) -> np.ndarray:
-                z = np.asarray(inverse(y.reshape(-1, 3).dot(R).ravel()))
-                return z.reshape(-1, 3).dot(R.T).ravel()
+            def solve(y: np.ndarray) -> np.ndarray:                     # T S₀⁻¹ Tᵀ y
+                return body.frame.to_global(np.asarray(inverse(y.reshape(-1, 3).dot(R).ravel())),
+                                            R)
 
             def rows(directions: np.ndarray) -> np.ndarray:
                 local = np.einsum("fail,il->fai", solved, directions.dot(R))

@@ -29,14 +29,13 @@ second; an axis or drive row's λ is a moment (N·m).
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping
 
 import numpy as np
 
 from gcms_fenicsx.config.scene import Drive
-from gcms_fenicsx.dynamics.constraints.joints import RowInfo, plane_basis
+from gcms_fenicsx.dynamics.constraints.joints import RowInfo, plane_basis, turned
 from gcms_fenicsx.dynamics.system import checks
 from gcms_fenicsx.dynamics.system.members import Flexible, PointMass
 from gcms_fenicsx.numerics.group_geometry import MIN_LEVER, lever
@@ -171,15 +170,10 @@ class DrivenRow(Row):
     drive: Drive | None = None
 
     def turned(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(u, u̇, ü) at t (Rodrigues: u(t) = cos θ u₀ + sin θ e × u₀ + (1 − cos θ) e (e · u₀))."""
+        """(u, u̇, ü) at t, u₀ turned about the axis by the drive's θ(t) (``joints.turned``)."""
         assert self.drive is not None
-        theta, rate, accel = self.drive.angle(t)
         e, u0 = self.axis, self.start
-        across, along = np.cross(e, u0), np.outer(u0 @ e, e)
-        c, s = math.cos(theta), math.sin(theta)
-        u = c * u0 + s * across + (1.0 - c) * along
-        turned_across = c * across + s * (along - u0)          # e × u(t)
-        return u, rate * turned_across, accel * turned_across + rate * rate * (along - u)
+        return turned(u0, np.cross(e, u0), np.outer(u0 @ e, e), self.drive.angle(t))
 
     def directions(self, Q: Parts, t: float) -> tuple[np.ndarray, ...]:
         return (self.turned(t)[0],)
