@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from common import log, parser, pyplot, quiet, save_figure, table_head, table_row
-from common import temporary_folder, write_markdown, write_record
+from common import run_interruptibly, temporary_folder, write_markdown, write_record
 
 RECORD_S = 1e-4       # the recorded rows' spacing
 STIFF = 1e4           # the factor on E of the rigid check
@@ -275,4 +275,4 @@ def write(result: dict, args: Any) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_interruptibly(main, "--out")

@@ -27,7 +27,6 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before NumPy
 
 import json
 import subprocess
-import sys
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
@@ -35,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from common import log, parser, quiet, table_head, table_row, temporary_folder
-from common import write_markdown, write_record
+from common import run_interruptibly, write_markdown, write_record
 from slider_crank import benchmark, conrod_chain, simulate
 
 FFRF = Path(__file__).resolve().parent / "exudyn" / "slider_crank_ffrf.py"
@@ -165,4 +164,4 @@ def write(rows: list[dict], out: Path) -> None:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_interruptibly(main, "--out")

@@ -99,6 +99,20 @@ def temporary_folder(prefix: str | None = None) -> Iterator[Path]:
         yield Path(tmp)
 
 
+def run_interruptibly(main: Any, out: str) -> None:
+    """``main()`` with SIGINT and SIGTERM raised as the package's ``Interrupted`` (so every
+    temporary folder is removed on the way out); an interrupt ends in one line naming what is
+    left as it was (``out``) and exit status 130 or 143, as the ``gcms`` command's."""
+    from gcms_fenicsx.runtime.interrupts import Interrupted, interruptible
+
+    try:
+        with interruptible():
+            main()
+    except Interrupted as exc:
+        print(f"interrupted ({exc}); {out} is as it was", file=sys.stderr)
+        sys.exit(exc.exit_status)
+
+
 # --- tables --------------------------------------------------------------------------------
 
 def table_head(*columns: str) -> list[str]:
