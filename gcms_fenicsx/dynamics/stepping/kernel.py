@@ -138,12 +138,33 @@ def compile_lock() -> Iterator[None]:
             fcntl.flock(handle, fcntl.LOCK_UN)
 
 
+def compile_for_generic_model() -> None:
+    """Have Numba compile for LLVM's generic CPU model with this machine's instruction set
+    (``NUMBA_CPU_NAME=generic``, ``NUMBA_CPU_FEATURES`` the host's), unless the user chose a
+    model (``NUMBA_CPU_NAME``) or this process has compiled with Numba already (its CPU target
+    is then fixed). LLVM 14's model of the host can cost the compile dearly: the kernel took
+    275 s for AMD's znver3 and 86 s for the generic model with the same features, which step
+    alike (the products are BLAS calls, the loops scalar; docs/compiled-step.md). Numba keys
+    its cache by the model and features, so a kernel cached for another is not served."""
+    import numba
+    from numba.core import registry
+    from numba.core.codegen import get_host_cpu_features
+
+    if (os.environ.get("NUMBA_CPU_NAME")
+            or "_toplevel_target_context" in vars(registry.cpu_target)):
+        return
+    numba.config.CPU_NAME = "generic"
+    if numba.config.CPU_FEATURES is None:
+        numba.config.CPU_FEATURES = get_host_cpu_features()
+
+
 @lru_cache(maxsize=1)
 def kernel_module() -> ModuleType:
     """``compiled.step``, its functions cached in :func:`cache_folder` (older kernels' folders
-    beside it removed)."""
+    beside it removed), compiled for the generic CPU model (:func:`compile_for_generic_model`)."""
     import numba
 
+    compile_for_generic_model()
     folder = cache_folder()
     for old in folder.parent.glob("kernel-*"):
         if old != folder:
