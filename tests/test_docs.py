@@ -210,7 +210,7 @@ def _parser_keys() -> dict[str, set[str]]:
     import geometry.sections as sections
     from gcms_fenicsx.config import basis, geometry, material, modes, outputs, selection
     from gcms_fenicsx.config import table as table_module
-    from gcms_fenicsx.config import scene
+    from gcms_fenicsx.config import scene, system
 
     read: dict[str, set[str]] = {}
     original = table_module.Table.get
@@ -256,9 +256,32 @@ def _parser_keys() -> dict[str, set[str]]:
             "velocity": [0, 0, 0], "angular_velocity": [0, 0, 0], "mode": 1,
             "amplitude": 1e-3, "direction": [0, 0, 1]}})
         attempt(scene.parse_scene, {**base, "initial": {"equilibrium": True}})
+        rigid = {"mass": 1.0, "center": [0, 0, 0], "inertia": [1, 1, 1],
+                 "points": {"p": [0, 0, 0]}}
+        placed = {"position": [0, 0, 0], "velocity": [0, 0, 0], "angular_velocity": [0, 0, 0],
+                  "rotation": {"axis": [0, 0, 1], "angle": 0.0}}
+        attempt(system.parse_system, {
+            "system": {"end_time": 1.0, "time_step": 0.1, "rho_inf": 0.8, "record_every": 1,
+                       "gravity": [0, 0, 0], "tolerance": 1e-10, "max_iterations": 25},
+            "bodies": {"NAME": {"rigid": rigid, **placed}, "other": {"rigid": rigid},
+                       "mass": {"point_mass": 1.0}},
+            "joints": [{"name": "j", "type": "revolute", "body": "NAME", "point": "p",
+                        "to_body": "ground", "axis": [0, 0, 1], "drive": joint["drive"]},
+                       {"type": "spherical", "body": "NAME", "point": "p", "to_body": "other",
+                        "to_point": "p"}]})
+        attempt(system.parse_system, {"system": {"end_time": 1.0, "time_step": 0.1},
+                                      "bodies": {"flexible": {"study": "none.toml"}}})
     finally:
         table_module.Table.get = original
     read.pop("mesh.refine", None)      # its keys are the body's surface groups
+    for name in ("bodies.NAME.rigid", "bodies.other.rigid"):
+        read["bodies.NAME.rigid"] = read.get("bodies.NAME.rigid", set()) | read.pop(name, set())
+    for name in ("bodies.NAME.rigid.points", "bodies.other.rigid.points"):
+        read.pop(name, None)           # the bodies' own point names
+    for name in ("bodies.mass", "bodies.other", "bodies.flexible"):  # one table's keys
+        read["bodies.NAME"] |= read.pop(name, set())
+    read.pop("bodies", None)           # its keys are the bodies' names
+    read.pop("joints.drive", None)     # the scene's drive (config.scene.parse_drive)
     # Every section's and the crankshaft's keys, declared where the geometry is.
     read["geometry"].update(k for keys in sections.SECTION_KEYS.values() for k in keys)
     read["geometry"].update(params.CRANKSHAFT_DEFAULTS)
@@ -269,8 +292,11 @@ def test_study_file_reference_matches_the_parsers():
     from gcms_fenicsx.config import study
 
     documented, parsed = _documented_keys(), _parser_keys()
-    for name in study.KNOWN_TABLES:
-        assert name in documented, f"docs/study-file.md has no section for [{name}]"
+    from gcms_fenicsx.config import system
+
+    for name in (*study.KNOWN_TABLES, *system.SYSTEM_TABLES):
+        assert name in documented or f"{name}.NAME" in documented, \
+            f"docs/study-file.md has no section for [{name}]"
     undocumented = sorted(f"[{t}] {k}" for t, keys in parsed.items()
                           for k in keys - documented.get(t, set()))
     unknown = sorted(f"[{t}] {k}" for t, keys in documented.items()

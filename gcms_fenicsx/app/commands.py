@@ -17,13 +17,16 @@ its progress lines and in the ``stages`` block of the JSON reports it writes
 from __future__ import annotations
 
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from gcms_fenicsx.app import stage_cache, stage_files
+from gcms_fenicsx.app import stage_cache, stage_files, system_plots, system_run
 from gcms_fenicsx.app.plots import plot_results
-from gcms_fenicsx.config.plan import ScenePlan
+from gcms_fenicsx.config.plan import ScenePlan, StudyPlan
 from gcms_fenicsx.config.study import load_config
+from gcms_fenicsx.config.system import SystemConfig
 from gcms_fenicsx.config.table import ConfigError
 from gcms_fenicsx.dynamics.run.study_run import finished, run_scene
 from gcms_fenicsx.files.names import MESH_FILES, MODES_FILES, REDUCE_FILES, SIMULATION_FILES
@@ -47,9 +50,26 @@ def _world() -> Any:
     return MPI.COMM_WORLD
 
 
+@contextmanager
+def built_stages(plan: StudyPlan, out: Path, fresh: bool, upto: str, owns: tuple[str, ...],
+                 comm: Any, progress: Progress) -> Iterator[tuple[Path, stage_files.Built]]:
+    """Plan the reuse, stage, build one body's stages up to ``upto`` into the staging folder
+    and write the cache manifest; (the folder, what was built), published into ``out`` when
+    the ``with`` block ends without an error."""
+    on_rank0(comm, check_out, out)
+    reuse = comm.bcast(stage_cache.reuse(plan.body, out, upto, fresh, progress)
+                       if comm.rank == 0 else None, root=0)
+    owned = (*stage_cache.owned_files(reuse, owns), stage_cache.MANIFEST)
+    with staged_output(out, comm, owned) as folder:
+        built = stage_files.build(plan, folder, progress, comm, reuse, upto)
+        if comm.rank == 0:
+            stage_cache.write_manifest(out, folder, owned, reuse)
+        yield folder, built
+
+
 def _verb(config: Path | None, out: Path, fresh: bool, upto: str, owns: tuple[str, ...],
           scene: str = "none") -> tuple[list[str], dict | None]:
-    """Validate, plan the reuse, stage, build up to ``upto`` and simulate the scene
+    """Validate, build up to ``upto`` (:func:`built_stages`) and simulate the scene
     (``scene``: "none", "optional" or "required")."""
     plan = load_config(config).plan
     if scene == "required" and plan.scene is None:
@@ -57,15 +77,8 @@ def _verb(config: Path | None, out: Path, fresh: bool, upto: str, owns: tuple[st
                                   "initial motion and time span to simulate")
     comm = _world()
     progress = progress_printer(comm.rank)
-    on_rank0(comm, check_out, out)
-    reuse = comm.bcast(stage_cache.reuse(plan.body, out, upto, fresh, progress)
-                       if comm.rank == 0 else None, root=0)
-    owned = (*stage_cache.owned_files(reuse, owns), stage_cache.MANIFEST)
     summary = None
-    with staged_output(out, comm, owned) as folder:
-        built = stage_files.build(plan, folder, progress, comm, reuse, upto)
-        if comm.rank == 0:
-            stage_cache.write_manifest(out, folder, owned, reuse)
+    with built_stages(plan, out, fresh, upto, owns, comm, progress) as (folder, built):
         if scene != "none" and plan.scene is not None:
             summary = on_rank0(comm, scene_files, plan.scene, built.model, folder, progress,
                                built.stages, built.stress)
@@ -135,8 +148,39 @@ def simulate(config: Path | None, out: Path, fresh: bool = False) -> str:
 def run(config: Path | None, out: Path, fresh: bool = False) -> str:
     """``gcms run``: every stage — geometry, mesh, modes, selection, reduced model and, when
     the study has a [scene], the simulation with its plots — each reused from --out when its
-    inputs are unchanged (``--fresh``: none)."""
+    inputs are unchanged (``--fresh``: none). A system study (``[system]``) runs every body's
+    stages and then the assembly (:func:`run_system`)."""
+    raw = system_run.system_file(config)
+    if raw is not None:
+        return run_system(system_run.load_system(config, raw), out, fresh)
     texts, summary = _verb(config, out, fresh, "reduced", SCENE_OWNS, scene="optional")
     if summary is None:
         return "\n".join([*texts, "no [scene] table: the simulation stage was skipped"])
     return finished(texts, summary)
+
+
+def run_system(cfg: SystemConfig, out: Path, fresh: bool = False) -> str:
+    """A system study: each flexible body's stages in ``out``/bodies/NAME (its own cache), then
+    the assembly stepped on rank 0, its files (``system_run.SYSTEM_FILES``) published into
+    ``out`` together."""
+    comm = _world()
+    progress = progress_printer(comm.rank)
+    on_rank0(comm, check_out, out)
+    models, stages, texts = {}, {}, []
+    for body in cfg.flexible:
+        progress(f"body {body.name}: {body.source}")
+        folder = out / system_run.BODIES_FOLDER / body.name
+        with built_stages(body.study.plan, folder, fresh, "reduced", REDUCE_FILES, comm,
+                          progress) as (_, built):
+            pass
+        models[body.name], stages[body.name] = built.model, built.stages
+        texts += [f"{body.name}: {line}" for line in built.texts]
+    with staged_output(out, comm, system_run.SYSTEM_FILES) as folder:
+        summary = on_rank0(comm, system_run.simulate_system, cfg, models, folder, progress)
+        if comm.rank == 0:
+            summary["stages"] = stages
+            write_json(folder / "summary.json", summary)
+    if comm.rank == 0:
+        summary = dict(summary, plots=system_plots.draw(out, progress))
+        write_json(out / "summary.json", summary)
+    return "\n".join([*texts, system_run.system_text(summary) if comm.rank == 0 else ""])

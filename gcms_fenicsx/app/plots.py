@@ -97,14 +97,14 @@ def read_plot_data(path: Path, max_rows: int = PLOT_ROWS) -> PlotData:
             complete=bool(f.attrs["complete"]), stride=stride, stress=_stress_plot(f, stride))
 
 
-def _pyplot():
+def pyplot():
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     return plt
 
 
-def _save(plt, fig, path: Path) -> None:
+def save_figure(plt, fig, path: Path) -> None:
     """Write ``fig`` as PNG to ``path`` (a temporary name: the format is not read from it)."""
     try:
         fig.tight_layout()
@@ -116,7 +116,7 @@ def _save(plt, fig, path: Path) -> None:
 def plot_trajectory(traj: PlotData, path: Path) -> None:
     """The sensor group's displacement components against time, and its path in the plane
     of its two largest motions."""
-    plt = _pyplot()
+    plt = pyplot()
     t, x, sensor = traj.time, traj.sensor_position, traj.sensor
     d = x - x[0]
     scale, unit = (1e3, "mm") if np.abs(d).max() > 1e-4 else (1e6, "µm")
@@ -138,12 +138,12 @@ def plot_trajectory(traj: PlotData, path: Path) -> None:
     right.set_title(f"path of {sensor}")
     status = "" if traj.complete else "  (incomplete)"
     fig.suptitle(f"sensor {sensor}{status}{traj.note}")
-    _save(plt, fig, path)
+    save_figure(plt, fig, path)
 
 
 def plot_energy(traj: PlotData, path: Path) -> None:
     """Kinetic, elastic and gravity energy, the work terms, and the balance error."""
-    plt = _pyplot()
+    plt = pyplot()
     e, t = traj.energy, traj.time
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True,
                                       gridspec_kw={"height_ratios": [2.2, 1]})
@@ -161,7 +161,7 @@ def plot_energy(traj: PlotData, path: Path) -> None:
     bottom.set_xlabel("time [s]")
     bottom.grid(alpha=0.3)
     top.set_title(f"energies{traj.note}")
-    _save(plt, fig, path)
+    save_figure(plt, fig, path)
 
 
 def plot_joints(traj: PlotData, path: Path) -> None:
@@ -169,7 +169,7 @@ def plot_joints(traj: PlotData, path: Path) -> None:
     joint constrains a rotation, its moments, against time: a scene of spherical joints only
     gets no moment panel, and a joint whose force rows all went to an earlier joint on its
     group (a revolute after a fixed one) only its moments."""
-    plt = _pyplot()
+    plt = pyplot()
     joints = list(dict.fromkeys(r["joint"] for r in traj.rows if r["kind"] == "force"))
     moments = [(i, r) for i, r in enumerate(traj.rows) if r["unit"] == "N*m"]
     panels = 1 + bool(moments) + (traj.stress is not None)
@@ -194,7 +194,7 @@ def plot_joints(traj: PlotData, path: Path) -> None:
     if traj.stress is not None:
         _hot_spot_series(axes[-1, 0], traj)
     axes[-1, 0].set_xlabel("time [s]")
-    _save(plt, fig, path)
+    save_figure(plt, fig, path)
 
 
 def _hot_spot_series(ax, traj: PlotData) -> None:
@@ -211,7 +211,7 @@ def _hot_spot_series(ax, traj: PlotData) -> None:
 def plot_stress(traj: PlotData, path: Path) -> None:
     """The recorded nodes coloured by their peak von Mises stress over the run, the hot spot
     marked, and its stress against time."""
-    plt = _pyplot()
+    plt = pyplot()
     s = traj.stress
     assert s is not None
     fig = plt.figure(figsize=(12, 5))
@@ -234,7 +234,7 @@ def plot_stress(traj: PlotData, path: Path) -> None:
     fig.axes[-1].set_xlabel("time [s]")
     status = "" if traj.complete else "  (incomplete)"
     fig.suptitle(f"stresses at {len(s.peak)} recorded nodes{status}{traj.note}")
-    _save(plt, fig, path)
+    save_figure(plt, fig, path)
 
 
 #: The pictures in the order they are drawn: name, drawing function, and whether the run's

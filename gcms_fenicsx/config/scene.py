@@ -225,6 +225,16 @@ def _axis(t: Table, key: str) -> tuple[float, float, float]:
     return tuple(a / norm for a in axis)
 
 
+def parse_drive(t: Table) -> Drive:
+    """The ``drive`` table of the joint table ``t`` (``Drive``)."""
+    d = Table(f"{t.name}.drive", t.subtable("drive"))
+    drive = Drive(angular_velocity=d.number("angular_velocity"),
+                  ramp_time_s=d.number("ramp_time", 0.0, low=0.0),
+                  ramp=d.choice("ramp", DRIVE_RAMPS, "cosine"))
+    d.finish()
+    return drive
+
+
 def _joint(t: Table) -> Joint:
     kind = t.choice("type", JOINT_TYPES)
     group = _group_name(t, "group")
@@ -235,11 +245,7 @@ def _joint(t: Table) -> Joint:
     if t.has("drive"):
         if kind == "spherical":
             raise t.error("drive", t.get("drive"), "a drive needs a revolute or fixed joint")
-        d = Table(f"{t.name}.drive", t.subtable("drive"))
-        drive = Drive(angular_velocity=d.number("angular_velocity"),
-                      ramp_time_s=d.number("ramp_time", 0.0, low=0.0),
-                      ramp=d.choice("ramp", DRIVE_RAMPS, "cosine"))
-        d.finish()
+        drive = parse_drive(t)
         if axis is None:
             raise t.error("axis", None, "required with a drive: the axis it turns the group about")
     t.finish()

@@ -54,6 +54,9 @@ class StudyConfig:
 def parse_config(raw: Mapping[str, Any], source: str = "<dict>") -> StudyConfig:
     """Validate a whole study (a parsed TOML document)."""
     unknown = sorted(set(raw) - set(KNOWN_TABLES))
+    if "system" in raw:
+        raise ConfigError("[system]", "…", "this is a system study (several bodies): gcms run "
+                          "runs it; the other commands take one body's study")
     if unknown:
         raise ConfigError(f"[{unknown[0]}]", raw[unknown[0]],
                           "unknown table (allowed: " + ", ".join(KNOWN_TABLES) + ")")

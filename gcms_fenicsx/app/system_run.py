@@ -1,0 +1,195 @@
+"""``gcms run`` on a system study (``config.system``): every flexible body's stages, each in
+``--out/bodies/NAME`` with its own stage cache (``--fresh``, progress and errors as a one-body
+study's), then the assembly (``dynamics.system``) stepped on rank 0 and its files written
+into ``--out``, published together when the run succeeded (``files.outputs.staged_output``).
+
+Files (docs/files.md): ``system.h5`` — ``time_s``, ``iterations``, ``energy/*``, the kept rows
+(``rows/joint``, ``rows/kind``, ``rows/axis``, ``rows/unit``) and their ``multipliers``, each
+joint's force and moment on its first body (``joints/NAME/force_n``, ``moment_nm``: −Σ λ_k
+a_k over its force and moment rows, a_k the rows' axes at the start) and each body's
+coordinates (``bodies/NAME/q``); ``summary.json``; ``system_joints.png``.
+"""
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from gcms_fenicsx.config.system import (GROUND, FlexibleSpec, JointSpec, PointMassSpec,
+                                        RigidSpec, SystemConfig, is_system, parse_system)
+from gcms_fenicsx.config.table import ConfigError
+from gcms_fenicsx.files.outputs import atomic_file
+from gcms_fenicsx.files.reduced_model import ReducedModel
+from gcms_fenicsx.runtime.progress import Progress
+
+SYSTEM_FILES = ("system.h5", "summary.json", "system_joints.png")
+BODIES_FOLDER = "bodies"
+
+
+def system_file(path: Path | None) -> dict[str, Any] | None:
+    """The parsed TOML of ``path`` if it is a system study, else None (a file that cannot be
+    read or parsed is left to the one-body reader, which says why)."""
+    if path is None:
+        return None
+    try:
+        raw = tomllib.loads(Path(path).read_text())
+    except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError):
+        return None
+    return raw if is_system(raw) else None
+
+
+def load_system(path: Path, raw: dict[str, Any]) -> SystemConfig:
+    """The validated system study of ``path`` (its bodies' ``study`` paths relative to it)."""
+    return parse_system(raw, str(path), Path(path).resolve().parent)
+
+
+def members(cfg: SystemConfig, models: dict[str, ReducedModel]) -> tuple:
+    """The assembly's members, placed: flexible bodies of their reduced models, rigid bodies,
+    point masses."""
+    from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
+    from gcms_fenicsx.dynamics.system.members import Flexible, PointMass, placed_coordinates
+    from gcms_fenicsx.dynamics.system.rigid import rigid_body, rigid_member
+
+    made = []
+    for spec in cfg.bodies:
+        R0, x0 = spec.placement.matrix, np.array(spec.placement.position)
+        try:
+            if isinstance(spec, FlexibleSpec):
+                body = body_from_reduced(models[spec.name])
+                made.append(Flexible(spec.name, body, placed_coordinates(body, R0, x0)))
+            elif isinstance(spec, RigidSpec):
+                body = rigid_body(spec.mass_kg, np.array(spec.center_m),
+                                  np.array(spec.inertia_kgm2), spec.points)
+                made.append(rigid_member(spec.name, body, R0, x0))
+            else:
+                made.append(PointMass(spec.name, spec.mass_kg, x0))
+        except ValueError as exc:
+            raise ConfigError(f"[bodies.{spec.name}]", spec.kind, str(exc)) from exc
+    return tuple(made)
+
+
+def joint_rows(spec: JointSpec, by_name: dict[str, Any]) -> tuple:
+    """The rows of one joint (``dynamics.system.joint_types``); a ConfigError naming it."""
+    from gcms_fenicsx.dynamics.system import joint_types
+
+    axis = None if spec.axis is None else np.array(spec.axis)
+    try:
+        if spec.to_body == GROUND:
+            return joint_types.to_ground(spec.name, spec.type, by_name[spec.body], spec.point,
+                                         axis, spec.drive)
+        return joint_types.between(spec.name, spec.type, by_name[spec.body], spec.point,
+                                   by_name[spec.to_body], spec.to_point, axis)
+    except ValueError as exc:
+        raise ConfigError(f"[[joints]] {spec.name!r}", spec.type, str(exc)) from exc
+
+
+def start_velocity(cfg: SystemConfig, made: tuple) -> np.ndarray:
+    """q̇ at t = 0 from each body's ``velocity`` (of its centre of mass) and
+    ``angular_velocity`` (the run makes it consistent with the joints)."""
+    parts = []
+    for spec, member in zip(cfg.bodies, made):
+        v, w = np.array(spec.placement.velocity), np.array(spec.placement.angular_velocity)
+        parts.append(v if isinstance(spec, PointMassSpec)
+                     else member.body.rigid_velocity(member.q_start, v, w))
+    return np.concatenate(parts)
+
+
+def simulate_system(cfg: SystemConfig, models: dict[str, ReducedModel], folder: Path,
+                    progress: Progress) -> dict:
+    """Assemble, step and write ``folder``/system.h5 and the summary (rank 0)."""
+    from gcms_fenicsx.dynamics.system.assembly import AssemblyError, assemble
+    from gcms_fenicsx.dynamics.system.march import march
+    from gcms_fenicsx.dynamics.system.stepper import AssemblyStepper, StepSettings, initial_state
+
+    made = members(cfg, models)
+    by_name = {m.name: m for m in made}
+    rows = tuple(r for spec in cfg.joints for r in joint_rows(spec, by_name))
+    try:
+        assembly = assemble(made, rows, np.array(cfg.gravity))
+    except (AssemblyError, ValueError) as exc:
+        raise ConfigError("[[joints]]", [j.name for j in cfg.joints], str(exc)) from exc
+    stepper = AssemblyStepper(assembly, StepSettings(cfg.time_step_s, cfg.rho_inf,
+                                                     cfg.tolerance, cfg.max_iterations))
+    progress(f"system: {len(made)} bodies, {assembly.dofs} coordinates, {assembly.count} joint "
+             f"rows ({len(assembly.dropped)} implied by others, dropped); stepping to "
+             f"{cfg.end_time_s:g} s at {cfg.time_step_s:g} s")
+    probes = {m.name: (lambda s, where=assembly.offsets[m.name]: s.q[where]) for m in made}
+    run = march(stepper, initial_state(stepper, start_velocity(cfg, made)), cfg.end_time_s,
+                every=cfg.record_every, probes=probes, progress=progress)
+    forces = joint_forces(assembly, run.multipliers, {j.name for j in cfg.joints})
+    write_system(folder / "system.h5", assembly, run, forces)
+    return system_summary(cfg, assembly, run, forces)
+
+
+def joint_forces(assembly: Any, multipliers: np.ndarray, joints: set[str]
+                 ) -> dict[str, dict[str, np.ndarray]]:
+    """Each of ``joints``' force (N) and moment (N·m) on its first body: −Σ λ_k a_k over its
+    rows of that kind (rows named NAME or NAME/…; ``joint_types``), a_k the rows' axes at the
+    start (a rigid body's rigidity rows are not joints)."""
+    found: dict[str, dict[str, np.ndarray]] = {}
+    for k, info in enumerate(assembly.rows):
+        name = info.joint.split("/")[0]
+        if name not in joints:
+            continue
+        key = "force_n" if info.kind == "force" else "moment_nm"
+        entry = found.setdefault(name, {})
+        entry[key] = entry.get(key, 0.0) - multipliers[:, k, None] * np.array(info.axis)
+    return found
+
+
+def write_system(path: Path, assembly: Any, run: Any, forces: dict) -> None:
+    """``system.h5`` (module docstring), written atomically."""
+    text = h5py.string_dtype()
+    with atomic_file(path) as tmp, h5py.File(tmp, "w") as f:
+        f["time_s"], f["iterations"] = run.time_s, run.iterations
+        for key, values in run.energy.items():
+            f[f"energy/{key}"] = values
+        f["multipliers"] = run.multipliers
+        f.create_dataset("rows/joint", data=[r.joint for r in assembly.rows], dtype=text)
+        f.create_dataset("rows/kind", data=[r.kind for r in assembly.rows], dtype=text)
+        f.create_dataset("rows/unit", data=[r.unit for r in assembly.rows], dtype=text)
+        f["rows/axis"] = np.array([r.axis for r in assembly.rows]).reshape(-1, 3)
+        for name, entry in forces.items():
+            for key, values in entry.items():
+                f[f"joints/{name}/{key}"] = values
+        for name, values in run.probes.items():
+            f[f"bodies/{name}/q"] = values
+
+
+def system_summary(cfg: SystemConfig, assembly: Any, run: Any, forces: dict) -> dict:
+    """summary.json of a system run."""
+    steps_per_s = run.steps / run.wall_time_s if run.wall_time_s > 0 else None
+    peak = {name: {"peak_" + key: float(np.linalg.norm(v, axis=1).max())
+                   for key, v in entry.items()} for name, entry in forces.items()}
+    return {
+        "kind": "system", "complete": True, "source": cfg.source,
+        "end_time_s": float(run.time_s[-1]), "time_step_s": cfg.time_step_s,
+        "steps": run.steps, "wall_time_s": run.wall_time_s, "steps_per_second": steps_per_s,
+        "newton_iterations_mean": run.newton_iterations / max(run.steps, 1),
+        "energy_drift_rel": run.energy_drift_rel, "velocity_change_rel": run.velocity_change,
+        "coordinates": assembly.dofs,
+        "bodies": {m.name: {"kind": spec.kind, "coordinates": m.dofs, "mass_kg": m.mass_kg}
+                   for spec, m in zip(cfg.bodies, assembly.members)},
+        "joints": {j.name: {"type": j.type, "body": j.body, "to_body": j.to_body,
+                            **peak.get(j.name, {})} for j in cfg.joints},
+        "dropped_rows": [r.joint for r in assembly.dropped],
+    }
+
+
+def system_text(summary: dict) -> str:
+    """The run's lines for a person."""
+    lines = [f"system: {len(summary['bodies'])} bodies, {summary['coordinates']} coordinates; "
+             f"{summary['steps']} steps to {summary['end_time_s']:.4g} s in "
+             f"{summary['wall_time_s']:.1f} s ({summary['steps_per_second']:,.0f} steps/s), "
+             f"{summary['newton_iterations_mean']:.2f} Newton iterations a step, energy drift "
+             f"{summary['energy_drift_rel']:.2e}"]
+    for name, joint in summary["joints"].items():
+        peaks = [f"peak force {joint['peak_force_n']:.4g} N" if "peak_force_n" in joint else "",
+                 f"peak moment {joint['peak_moment_nm']:.4g} N·m"
+                 if "peak_moment_nm" in joint else ""]
+        lines.append(f"  joint {name} ({joint['type']}): " + ", ".join(p for p in peaks if p))
+    return "\n".join(lines)
+

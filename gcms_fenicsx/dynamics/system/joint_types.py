@@ -1,0 +1,84 @@
+"""The joint types of a system study as rows (``rows``; docs/assemblies.md "Joint types from
+rows"): a point of one member held to a point of another, or to the ground where it starts.
+
+Row names: the joint's name for its point's rows (coincide or on_line), ``NAME/axis`` for the
+rows that hold its rotation, ``NAME/drive`` for a drive's row, ``NAME/turn`` for a prismatic
+or fixed joint's rotation about its axis. NumPy only.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from gcms_fenicsx.config.scene import Drive
+from gcms_fenicsx.dynamics.constraints.joints import plane_basis
+from gcms_fenicsx.dynamics.system import rows
+from gcms_fenicsx.dynamics.system.members import Flexible, PointMass
+
+Member = Flexible | PointMass
+GROUND_TYPES = ("spherical", "revolute", "cylindrical", "prismatic", "fixed")
+BETWEEN_TYPES = ("spherical", "revolute")
+
+
+def point_of(member: Member, name: str | None) -> rows.Point:
+    """A point mass's position, or a node group's (a rigid body's named point's) mean."""
+    if isinstance(member, PointMass):
+        return rows.mass_point(member)
+    return rows.group_point(member, name or "")
+
+
+def start_of(member: Member, point: rows.Point) -> np.ndarray:
+    """Where ``point`` of ``member`` is at the start (m)."""
+    return point.vector @ member.q_start.reshape(-1, 3)
+
+
+def _held_rotation(joint: str, member: Member, group: str | None, axis: np.ndarray,
+                   about_axis: bool) -> tuple[rows.Row, ...]:
+    """The rows holding a member's group from turning away from ``axis`` (and, with
+    ``about_axis``, about it): none for a point mass, which has no rotation."""
+    if isinstance(member, PointMass):
+        return ()
+    held: tuple[rows.Row, ...] = (rows.keep_axis(f"{joint}/axis", member, group or "", axis),)
+    if about_axis:
+        held += (rows.keep_axis(f"{joint}/turn", member, group or "", plane_basis(axis)[0]),)
+    return held
+
+
+def to_ground(joint: str, kind: str, member: Member, point: str | None,
+              axis: np.ndarray | None = None, drive: Drive | None = None
+              ) -> tuple[rows.Row, ...]:
+    """The rows of a joint of ``kind`` holding ``member``'s ``point`` to the ground where it
+    starts: spherical (the point), revolute (the point and the axis; ``drive`` turns it),
+    cylindrical (the point on the line along the axis, the axis), prismatic (the point on the
+    line, no rotation), fixed (the point, no rotation)."""
+    if kind not in GROUND_TYPES:
+        raise ValueError(f"joint {joint!r}: type {kind!r} is not one of {GROUND_TYPES}")
+    p = point_of(member, point)
+    here = rows.fixed_point(start_of(member, p))
+    e = np.array([0.0, 0.0, 1.0]) if axis is None else np.asarray(axis, float)
+    if kind == "spherical":
+        return (rows.coincide(joint, p, here),)
+    if kind == "revolute":
+        turned = (() if drive is None else
+                  (rows.drive(f"{joint}/drive", member, point or "", e, drive),))
+        return (rows.coincide(joint, p, here), *_held_rotation(joint, member, point, e, False),
+                *turned)
+    if kind in ("cylindrical", "prismatic"):
+        return (rows.on_line(joint, p, e),
+                *_held_rotation(joint, member, point, e, kind == "prismatic"))
+    return (rows.coincide(joint, p, here), *_held_rotation(joint, member, point, e, True))
+
+
+def between(joint: str, kind: str, a: Member, point_a: str | None, b: Member,
+            point_b: str | None, axis: np.ndarray | None = None) -> tuple[rows.Row, ...]:
+    """The rows of a joint of ``kind`` between two members' points: spherical (the points
+    together) or revolute (together, and ``axis`` of a's group kept parallel to b's)."""
+    if kind not in BETWEEN_TYPES:
+        raise ValueError(f"joint {joint!r}: between two bodies a joint is one of "
+                         f"{BETWEEN_TYPES}, got {kind!r}")
+    together = rows.coincide(joint, point_of(a, point_a), point_of(b, point_b))
+    if kind == "spherical":
+        return (together,)
+    if isinstance(a, PointMass) or isinstance(b, PointMass):
+        raise ValueError(f"joint {joint!r}: a point mass has no rotation for a revolute joint")
+    return (together, rows.align_axes(f"{joint}/axis", a, point_a or "", b, point_b or "",
+                                      np.asarray(axis, float)))
