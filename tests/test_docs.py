@@ -263,7 +263,8 @@ def _parser_keys() -> dict[str, set[str]]:
         attempt(system.parse_system, {
             "system": {"end_time": 1.0, "time_step": 0.1, "rho_inf": 0.8, "record_every": 1,
                        "gravity": [0, 0, 0], "tolerance": 1e-10, "max_iterations": 25},
-            "bodies": {"NAME": {"rigid": rigid, **placed}, "other": {"rigid": rigid},
+            "bodies": {"NAME": {"rigid": rigid, **placed}, "other": {"rigid": rigid, "align": {
+                "point": "p", "to_body": "NAME", "to_point": "p"}},
                        "mass": {"point_mass": 1.0}},
             "joints": [{"name": "j", "type": "revolute", "body": "NAME", "point": "p",
                         "to_body": "ground", "axis": [0, 0, 1], "drive": joint["drive"]},
@@ -278,6 +279,7 @@ def _parser_keys() -> dict[str, set[str]]:
         read["bodies.NAME.rigid"] = read.get("bodies.NAME.rigid", set()) | read.pop(name, set())
     for name in ("bodies.NAME.rigid.points", "bodies.other.rigid.points"):
         read.pop(name, None)           # the bodies' own point names
+    read["bodies.NAME.align"] = read.pop("bodies.other.align", set())
     for name in ("bodies.mass", "bodies.other", "bodies.flexible"):  # one table's keys
         read["bodies.NAME"] |= read.pop(name, set())
     read.pop("bodies", None)           # its keys are the bodies' names

@@ -153,6 +153,10 @@ def _rigid(**changes) -> dict:
     ({"joints.2.to_point": "b"}, "to_point", "is a point mass: it is its own point"),
     ({"joints.1.name": "main"}, "[[joints]] name", "joint names must be unique"),
     ({"joints.0.axis": [0, 0, 0]}, "axis", "must be a non-zero vector"),
+    ({"bodies.crank.align": {"to_body": "slider"}}, "[bodies.crank.align] to_body",
+     "must be a body listed above this one: (none)"),
+    ({"bodies.slider.align": {"to_body": "conrod", "to_point": "b"}},
+     "[bodies.slider] align", "give position or align, not both"),
     ({"bodies.conrod.study": "missing.toml", "bodies.conrod.rigid": None},
      "[bodies.conrod] study", "cannot be read"),
 ])

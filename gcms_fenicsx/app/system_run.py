@@ -53,22 +53,37 @@ def members(cfg: SystemConfig, models: dict[str, ReducedModel]) -> tuple:
     from gcms_fenicsx.dynamics.system.members import Flexible, PointMass, placed_coordinates
     from gcms_fenicsx.dynamics.system.rigid import rigid_body, rigid_member
 
-    made = []
+    def member(spec: Any, x0: np.ndarray) -> Any:
+        R0 = spec.placement.matrix
+        if isinstance(spec, FlexibleSpec):
+            body = body_from_reduced(models[spec.name])
+            return Flexible(spec.name, body, placed_coordinates(body, R0, x0))
+        if isinstance(spec, RigidSpec):
+            body = rigid_body(spec.mass_kg, np.array(spec.center_m),
+                              np.array(spec.inertia_kgm2), spec.points)
+            return rigid_member(spec.name, body, R0, x0)
+        return PointMass(spec.name, spec.mass_kg, x0)
+
+    made: dict[str, Any] = {}
     for spec in cfg.bodies:
-        R0, x0 = spec.placement.matrix, np.array(spec.placement.position)
         try:
-            if isinstance(spec, FlexibleSpec):
-                body = body_from_reduced(models[spec.name])
-                made.append(Flexible(spec.name, body, placed_coordinates(body, R0, x0)))
-            elif isinstance(spec, RigidSpec):
-                body = rigid_body(spec.mass_kg, np.array(spec.center_m),
-                                  np.array(spec.inertia_kgm2), spec.points)
-                made.append(rigid_member(spec.name, body, R0, x0))
-            else:
-                made.append(PointMass(spec.name, spec.mass_kg, x0))
+            x0 = np.array(spec.placement.position)
+            if spec.placement.align is not None:
+                x0 = aligned_position(spec.placement.align, member(spec, np.zeros(3)), made)
+            made[spec.name] = member(spec, x0)
         except ValueError as exc:
             raise ConfigError(f"[bodies.{spec.name}]", spec.kind, str(exc)) from exc
-    return tuple(made)
+    return tuple(made.values())
+
+
+def aligned_position(align: tuple, at_origin: Any, made: dict[str, Any]) -> np.ndarray:
+    """x₀ that puts the point ``align[0]`` of a member (``at_origin``: placed at x₀ = 0) where
+    the point ``align[2]`` of the member ``align[1]`` (placed before it) starts."""
+    from gcms_fenicsx.dynamics.system.joint_types import point_of, start_of
+
+    point, other, to_point = align
+    target = start_of(made[other], point_of(made[other], to_point))
+    return target - start_of(at_origin, point_of(at_origin, point))
 
 
 def joint_rows(spec: JointSpec, by_name: dict[str, Any]) -> tuple:

@@ -47,6 +47,9 @@ class Placement:
     rotation: tuple[tuple[float, ...], ...] = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
     velocity: tuple[float, ...] = (0.0, 0.0, 0.0)
     angular_velocity: tuple[float, ...] = (0.0, 0.0, 0.0)
+    #: (its point or None for a point mass, another body, that body's point or None): the
+    #: position that puts the point where the other body's point starts, in place of position
+    align: tuple[str | None, str, str | None] | None = None
 
     @property
     def matrix(self) -> np.ndarray:
@@ -141,8 +144,21 @@ def _placement(t: Table) -> Placement:
             raise r.error("axis", axis.tolist(), "must be a non-zero vector")
         rotation = rotation_about(axis / np.linalg.norm(axis), math.radians(r.number("angle")))
         r.finish()
+    align = None
+    if t.has("align"):
+        if t.has("position"):
+            raise t.error("align", t.get("align"), "give position or align, not both")
+        a = Table(f"{t.name}.align", t.subtable("align"))
+        named = [a.get(k, None) for k in ("point", "to_body", "to_point")]
+        if not all(v is None or (isinstance(v, str) and v) for v in named) or not named[1]:
+            raise t.error("align", t.get("align"), "must be {point = P, to_body = B, to_point = "
+                          "Q} (names; no point for a point mass): this body's P placed where "
+                          "B's Q starts")
+        a.finish()
+        align = (named[0], named[1], named[2])
     return Placement(position=t.vector("position", [0.0, 0.0, 0.0]),
                      rotation=tuple(tuple(float(x) for x in row) for row in rotation),
+                     align=align,
                      velocity=t.vector("velocity", [0.0, 0.0, 0.0]),
                      angular_velocity=t.vector("angular_velocity", [0.0, 0.0, 0.0]))
 
@@ -299,6 +315,13 @@ def parse_system(raw: Mapping[str, Any], source: str = "<dict>",
     if not raw.get("bodies"):
         raise ConfigError.missing("[bodies]", "a system needs bodies: [bodies.NAME] tables")
     bodies = {name: _body(name, b.get(name), folder) for name in raw["bodies"]}
+    listed = list(bodies)
+    for name, body in bodies.items():
+        align = body.placement.align
+        if align is not None and align[1] not in listed[:listed.index(name)]:
+            raise ConfigError(f"[bodies.{name}.align] to_body", align[1], "must be a body "
+                              "listed above this one: " + (", ".join(listed[:listed.index(name)])
+                                                           or "(none)"))
     listed = raw.get("joints", [])
     if not isinstance(listed, list) or not all(isinstance(v, Mapping) for v in listed):
         raise ConfigError("[[joints]]", listed, "must be an array of tables ([[joints]])")
