@@ -270,6 +270,14 @@ def _parser_keys() -> dict[str, set[str]]:
                         "to_body": "ground", "axis": [0, 0, 1], "drive": joint["drive"]},
                        {"type": "spherical", "body": "NAME", "point": "p", "to_body": "other",
                         "to_point": "p"}]})
+        engine = {"pistons": ["mass"], "bore": 0.08, "towards_crank": [0, 0, -1],
+                  "firing_order": [1], "first_firing_deg": 0.0, "crank_drive": "j",
+                  "ramp_time": 0.01, "pressure": {"angles_deg": [0, 1], "pressures_bar": [1, 1]}}
+        attempt(system.parse_system, {
+            "system": {"end_time": 1.0, "time_step": 0.1},
+            "bodies": {"NAME": {"rigid": rigid}, "mass": {"point_mass": 1.0}},
+            "joints": [{"name": "j", "type": "revolute", "body": "NAME", "point": "p",
+                        "axis": [0, 0, 1], "drive": joint["drive"]}], "engine": engine})
         attempt(system.parse_system, {"system": {"end_time": 1.0, "time_step": 0.1},
                                       "bodies": {"flexible": {"study": "none.toml"}}})
     finally:

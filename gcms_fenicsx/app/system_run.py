@@ -11,6 +11,7 @@ coordinates (``bodies/NAME/q``); ``summary.json``; ``system_joints.png``.
 """
 from __future__ import annotations
 
+import math
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -127,7 +128,8 @@ def simulate_system(cfg: SystemConfig, models: dict[str, ReducedModel], folder: 
     except (AssemblyError, ValueError) as exc:
         raise ConfigError("[[joints]]", [j.name for j in cfg.joints], str(exc)) from exc
     stepper = AssemblyStepper(assembly, StepSettings(cfg.time_step_s, cfg.rho_inf,
-                                                     cfg.tolerance, cfg.max_iterations))
+                                                     cfg.tolerance, cfg.max_iterations),
+                              gas_loads(cfg, assembly))
     progress(f"system: {len(made)} bodies, {assembly.dofs} coordinates, {assembly.count} joint "
              f"rows ({len(assembly.dropped)} implied by others, dropped); stepping to "
              f"{cfg.end_time_s:g} s at {cfg.time_step_s:g} s")
@@ -137,6 +139,30 @@ def simulate_system(cfg: SystemConfig, models: dict[str, ReducedModel], folder: 
     forces = joint_forces(assembly, run.multipliers, {j.name for j in cfg.joints})
     write_system(folder / "system.h5", assembly, run, forces)
     return system_summary(cfg, assembly, run, forces)
+
+
+def gas_loads(cfg: SystemConfig, assembly: Any) -> Any:
+    """t ↦ the gas forces of ``[engine]`` on the pistons (``gas_pressure.cylinder_loads``),
+    the crank angle the crankshaft drive's, risen in over the ramp time; None without an
+    engine."""
+    from gcms_fenicsx.dynamics.system import gas_pressure
+
+    engine = cfg.engine
+    if engine is None:
+        return None
+    curve = (gas_pressure.petrol_full_load() if engine.pressure == "petrol_full_load"
+             else gas_pressure.PressureCurve(*engine.pressure))
+    firing = gas_pressure.firing_angles(engine.firing_order, engine.first_firing_deg)
+    cylinders = tuple(gas_pressure.Cylinder(piston, engine.bore_m,
+                                            np.array(engine.towards_crank), firing[k + 1], curve)
+                      for k, piston in enumerate(engine.pistons))
+    drive = next(j.drive for j in cfg.joints if j.name == engine.crank_drive)
+    gas = gas_pressure.cylinder_loads(assembly.offsets, assembly.dofs, cylinders,
+                                      lambda t: math.degrees(drive.angle(t)[0]))
+    T = engine.ramp_time_s
+    if T == 0.0:
+        return gas
+    return lambda t: gas(t) * (0.5 * (1.0 - math.cos(math.pi * t / T)) if t < T else 1.0)
 
 
 def joint_forces(assembly: Any, multipliers: np.ndarray, joints: set[str]

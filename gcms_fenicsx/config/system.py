@@ -21,12 +21,13 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from gcms_fenicsx.config.engine import EngineSpec, parse_engine
 from gcms_fenicsx.config.scene import Drive, parse_drive
 from gcms_fenicsx.config.study import KNOWN_TABLES, StudyConfig, parse_config
 from gcms_fenicsx.config.table import ConfigError, Table
 from gcms_fenicsx.numerics.rotation import rotation_about
 
-SYSTEM_TABLES = ("system", "bodies", "joints")
+SYSTEM_TABLES = ("system", "bodies", "joints", "engine")
 JOINT_TYPES = ("spherical", "revolute", "cylindrical", "prismatic", "fixed")
 #: Joints that hold one body to another (the rest hold a body to the ground only).
 BETWEEN_BODIES = ("spherical", "revolute")
@@ -121,6 +122,7 @@ class SystemConfig:
     tolerance: float = 1e-10
     max_iterations: int = 25
     source: str = "<dict>"
+    engine: EngineSpec | None = None
 
     def body(self, name: str) -> BodySpec:
         return next(b for b in self.bodies if b.name == name)
@@ -336,7 +338,9 @@ def parse_system(raw: Mapping[str, Any], source: str = "<dict>",
         record_every=s.integer("record_every", 1, low=1), gravity=s.vector("gravity",
                                                                            [0.0, 0.0, 0.0]),
         tolerance=s.number("tolerance", 1e-10, low=1e-15, high=1e-3),
-        max_iterations=s.integer("max_iterations", 25, low=1), source=source)
+        max_iterations=s.integer("max_iterations", 25, low=1), source=source,
+        engine=parse_engine(raw.get("engine"), bodies,
+                            {j.name: j.drive for j in joints if j.drive is not None}))
     s.finish()
     return replace(cfg, bodies=tuple(_with_study(cfg, body) for body in cfg.bodies))
 
