@@ -313,3 +313,35 @@ def test_a_single_cylinder_engine_study_takes_the_gas_work_of_its_cycle(tmp_path
     np.testing.assert_allclose(piston[:, 2] - piston[0, 2] + r + L,
                                np.interp(omega * t, theta, x), atol=1e-9)
     assert abs(rows[-1] + work[-1] - (kinetic[-1] - kinetic[0])) <= 1e-6 * expected
+
+
+def test_identical_bodies_share_one_reduced_model_and_move_alike(tmp_path):
+    """Two pendulums of one inline beam study, each pinned at its end face to the ground about
+    y and placed 1 m apart: the second body takes the first's reduced model (its stages are
+    not run: ``stages`` says whose model it is) and, started alike, swings exactly as the
+    first but for the offset (the members are stepped in one state: 1e-12 m)."""
+    from gcms_fenicsx.app.commands import run_system
+
+    beam = {"geometry": {"kind": "beam", "section": "square", "side": 0.02, "length": 0.4},
+            "mesh": {"size": 0.01}, "modes": {"count": 4}, "basis": {"attachment": "scene"}}
+    raw = {"system": {"end_time": 0.02, "time_step": 1e-3, "gravity": [0.0, 0.0, -9.81]},
+           "bodies": {"left": beam, "right": {**beam, "position": [0.0, 1.0, 0.0]}},
+           "joints": [{"name": f"pin_{side}", "type": "revolute", "body": side,
+                       "point": "end_x0", "axis": [0.0, 1.0, 0.0]}
+                      for side in ("left", "right")]}
+    cfg = parse_system(raw, "pendulums", tmp_path)
+    assert cfg.body("left").model_key == cfg.body("right").model_key
+    out = tmp_path / "out"
+    run_system(cfg, out)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["stages"]["right"] == {"model_of": "left"}
+    assert not (out / "bodies" / "right").exists()
+    with h5py.File(out / "system.h5") as f:
+        left, right = f["bodies/left/q"][()], f["bodies/right/q"][()]
+    from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
+    from gcms_fenicsx.files.reduced_model import read_reduced
+
+    unit = body_from_reduced(read_reduced(out / "bodies" / "left" / "reduced.h5")).unit
+    shift = np.outer(unit, [0.0, 1.0, 0.0]).ravel()
+    assert np.abs(left[-1] - left[0]).max() > 1e-6           # they swing
+    np.testing.assert_allclose(right - shift, left, rtol=0, atol=1e-12)

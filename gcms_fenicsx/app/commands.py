@@ -166,8 +166,15 @@ def run_system(cfg: SystemConfig, out: Path, fresh: bool = False) -> str:
     comm = _world()
     progress = progress_printer(comm.rank)
     on_rank0(comm, check_out, out)
-    models, stages, texts = {}, {}, []
+    models, stages, texts, first = {}, {}, [], {}
     for body in cfg.flexible:
+        if body.model_key in first:          # the same study and joints: one reduced model
+            models[body.name] = models[first[body.model_key]]
+            stages[body.name] = {"model_of": first[body.model_key]}
+            progress(f"body {body.name}: the model of {first[body.model_key]} (the same study "
+                     "and joints)")
+            continue
+        first[body.model_key] = body.name
         progress(f"body {body.name}: {body.source}")
         folder = out / system_run.BODIES_FOLDER / body.name
         with built_stages(body.study.plan, folder, fresh, "reduced", REDUCE_FILES, comm,

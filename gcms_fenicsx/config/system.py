@@ -13,6 +13,8 @@ A flexible body's own ``[scene]`` is replaced by one the system's joints imply
 """
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 import tomllib
 from dataclasses import dataclass, field, replace
@@ -67,6 +69,8 @@ class FlexibleSpec:
     source: str
     placement: Placement
     study: StudyConfig | None = None
+    #: the digest of its tables and implied scene: bodies of one key share one reduced model
+    model_key: str = ""
     kind: str = field(default="flexible", init=False)
 
 
@@ -350,14 +354,15 @@ def body_scene(cfg: SystemConfig, body: FlexibleSpec) -> dict[str, Any] | None:
     scene's kind (:data:`SCENE_JOINT`) at each group they hold, its axis in the body's own
     coordinates; None when no joint holds the body."""
     R0 = body.placement.matrix
-    joints = []
+    joints: list[dict[str, Any]] = []
     for j in cfg.joints:
         for owner, group in ((j.body, j.point), (j.to_body, j.to_point)):
             if owner == body.name:
-                entry: dict[str, Any] = {"name": j.name if owner == j.body else f"{j.name}_to",
+                held = sum(e["group"] == group for e in joints)
+                entry: dict[str, Any] = {"name": f"{group}_{held}" if held else group,
                                          "type": SCENE_JOINT[j.type], "group": group}
                 if entry["type"] == "revolute":
-                    entry["axis"] = (R0.T @ np.array(j.axis)).tolist()
+                    entry["axis"] = (np.round(R0.T @ np.array(j.axis), 12) + 0.0).tolist()
                 joints.append(entry)
     if not joints:
         return None
@@ -370,10 +375,11 @@ def _with_study(cfg: SystemConfig, body: BodySpec) -> BodySpec:
     if not isinstance(body, FlexibleSpec):
         return body
     scene = body_scene(cfg, body)
+    tables = dict(body.tables) | ({"scene": scene} if scene else {})
     try:
-        study = parse_config(dict(body.tables) | ({"scene": scene} if scene else {}),
-                             body.source)
+        study = parse_config(tables, body.source)
     except ConfigError as exc:
         raise ConfigError(f"body {body.name!r} ({body.source}): {exc.key}", exc.value,
                           exc.allowed) from exc
-    return replace(body, study=study)
+    key = hashlib.sha256(json.dumps(tables, sort_keys=True, default=repr).encode()).hexdigest()
+    return replace(body, study=study, model_key=key)
