@@ -345,3 +345,31 @@ def test_identical_bodies_share_one_reduced_model_and_move_alike(tmp_path):
     shift = np.outer(unit, [0.0, 1.0, 0.0]).ravel()
     assert np.abs(left[-1] - left[0]).max() > 1e-6           # they swing
     np.testing.assert_allclose(right - shift, left, rtol=0, atol=1e-12)
+
+
+def test_a_flexible_body_as_rigid_is_its_rigid_twin(tmp_path):
+    """``as_rigid = true`` steps the conrod of ``workflows/slider_crank.toml`` as the rigid body
+    of its mass properties (``rigid.rigid_twin``): the slider and the slider-pin force follow
+    the closed form of a rigid conrod with the 3D conrod's mass, centre and inertia
+    (``rigid_reference``): the slider to 1e-12 m, the force to 1e-4 of its peak from 2 ms (the
+    rigid study above: 1.9e-5)."""
+    from gcms_fenicsx.app.commands import run_system
+    from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
+    from gcms_fenicsx.files.reduced_model import read_reduced
+    from gcms_fenicsx.references.slider_crank_assembly import rigid_reference
+
+    raw = tomllib.loads((REPO / "workflows" / "slider_crank.toml").read_text())
+    raw["bodies"]["conrod"] |= {"as_rigid": True, "mesh": {"size": 0.004}}
+    raw["system"] |= {"end_time": 0.03, "time_step": 5e-5}
+    out = tmp_path / "out"
+    run_system(parse_system(raw, "slider_crank.toml", REPO / "workflows"), out)
+    body = body_from_reduced(read_reduced(out / "bodies" / "conrod" / "reduced.h5"))
+    with h5py.File(out / "system.h5") as f:
+        t, slider = f["time_s"][()], f["bodies/slider/q"][:, 0]
+        force = f["joints/slider_pin/force_n"][()]
+        assert f["bodies/conrod/q"].shape[1] == 12           # a rigid body's coordinates
+    ref = rigid_reference(body, t)
+    assert np.abs(slider - ref["slider_m"]).max() <= 1e-12
+    error = np.abs(force[:, :2] - ref["pin_force_n"]).max(axis=1)
+    assert error[t >= 2e-3].max() <= 1e-4 * np.abs(ref["pin_force_n"]).max()
+    assert json.loads((out / "summary.json").read_text())["bodies"]["conrod"]["kind"] == "rigid"

@@ -52,10 +52,13 @@ def members(cfg: SystemConfig, models: dict[str, ReducedModel]) -> tuple:
     point masses."""
     from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
     from gcms_fenicsx.dynamics.system.members import Flexible, PointMass, placed_coordinates
-    from gcms_fenicsx.dynamics.system.rigid import rigid_body, rigid_member
+    from gcms_fenicsx.dynamics.system.rigid import rigid_body, rigid_member, rigid_twin
 
     def member(spec: Any, x0: np.ndarray) -> Any:
         R0 = spec.placement.matrix
+        if isinstance(spec, FlexibleSpec) and spec.as_rigid:
+            return rigid_member(spec.name, rigid_twin(body_from_reduced(models[spec.name])),
+                                R0, x0)
         if isinstance(spec, FlexibleSpec):
             body = body_from_reduced(models[spec.name])
             return Flexible(spec.name, body, placed_coordinates(body, R0, x0))
@@ -212,7 +215,8 @@ def system_summary(cfg: SystemConfig, assembly: Any, run: Any, forces: dict) -> 
         "newton_iterations_mean": run.newton_iterations / max(run.steps, 1),
         "energy_drift_rel": run.energy_drift_rel, "velocity_change_rel": run.velocity_change,
         "coordinates": assembly.dofs,
-        "bodies": {m.name: {"kind": spec.kind, "coordinates": m.dofs, "mass_kg": m.mass_kg}
+        "bodies": {m.name: {"kind": "rigid" if getattr(spec, "as_rigid", False) else spec.kind,
+                            "coordinates": m.dofs, "mass_kg": m.mass_kg}
                    for spec, m in zip(cfg.bodies, assembly.members)},
         "joints": {j.name: {"type": j.type, "body": j.body, "to_body": j.to_body,
                             **peak.get(j.name, {})} for j in cfg.joints},

@@ -71,6 +71,8 @@ class FlexibleSpec:
     study: StudyConfig | None = None
     #: the digest of its tables and implied scene: bodies of one key share one reduced model
     model_key: str = ""
+    #: stepped as the rigid body of its mass properties (``rigid.rigid_twin``)
+    as_rigid: bool = False
     kind: str = field(default="flexible", init=False)
 
 
@@ -219,7 +221,8 @@ def _flexible(name: str, t: Table, raw: Mapping[str, Any], folder: Path) -> Flex
         inline, source = {k: v for k, v in study.items() if k != "scene"}, str(path)
     else:
         source = f"[{t.name}]"
-    return FlexibleSpec(name, inline, source, _placement(t))
+    return FlexibleSpec(name, inline, source, _placement(t), as_rigid=t.boolean("as_rigid",
+                                                                               False))
 
 
 def _body(name: str, raw: Any, folder: Path) -> BodySpec:

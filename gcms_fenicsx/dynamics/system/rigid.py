@@ -67,6 +67,16 @@ def rigid_body(mass_kg: float, center_m: np.ndarray, inertia_kgm2: np.ndarray,
                      groups=groups, node_fields=fields, nodes_m=nodes)
 
 
+def rigid_twin(body: Body) -> Body:
+    """The rigid body of a GCMS body's mass properties — its mass, centre of mass and inertia
+    I = tr(J) I₃ − J from its second moment J about the centre — with its node groups' centres
+    as named points: the body with its elasticity taken away."""
+    J = np.asarray(body.second_moment, float)
+    points = {name: group.center_m for name, group in body.groups.items()}
+    return rigid_body(body.total_mass_kg, body.center_of_mass(body.q0),
+                      np.trace(J) * np.eye(3) - J, points)
+
+
 class Rigid(Flexible):
     """A rigid body as a member: ``assemble`` adds its :func:`rigidity` rows."""
 
