@@ -281,7 +281,9 @@ def _parser_keys() -> dict[str, set[str]]:
         attempt(system.parse_system, {"system": {"end_time": 1.0, "time_step": 0.1},
                                       "bodies": {"flexible": {"study": "none.toml"}}})
         attempt(system.parse_system, {"system": {"end_time": 1.0, "time_step": 0.1},
-                                      "bodies": {"flexible": {"modes": {}, "as_rigid": True}}})
+                                      "bodies": {"flexible": {
+                                          **{k: {} for k in system.BODY_STUDY_TABLES},
+                                          "as_rigid": True}}})
     finally:
         table_module.Table.get = original
     read.pop("mesh.refine", None)      # its keys are the body's surface groups
