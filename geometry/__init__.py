@@ -1,4 +1,5 @@
-"""Parametric Gmsh geometries of the study: straight beams of ten cross-sections and crankshafts.
+"""Parametric Gmsh geometries of the study: straight beams of ten cross-sections, crankshafts
+and connecting rods (two eyes with their bores, an I-section shank; groups on both bores).
 
 Independent of ``gcms_fenicsx``: the configuration layer reads the ``[geometry]`` and
 ``[mesh]`` tables into the parameter types of ``params`` and runs the checks here, whose
@@ -9,11 +10,13 @@ loaded only when ``build_msh`` is first used.
 
 Modules, pure Python: ``shapes`` and ``polygon`` (plane shapes and polygon checks),
 ``sections`` (the beam sections), ``crank_layout`` (where a crankshaft's parts go),
+``conrod_layout`` (a connecting rod's eyes and shank, and which of its lengths fit),
 ``params`` (the parameter types and their defaults), ``extent`` (a body's largest extent),
 ``features`` (smallest features against the kernel and the mesh size), ``groups``
 (physical group names and tags), ``estimate`` (cells and nodes before meshing),
 ``element_order`` (the P1 stiffness warning), ``errors``; with Gmsh: ``solid`` (what a
-builder returns), ``occ_shapes``, ``faces``, ``beam``, ``crankshaft`` and ``meshing``.
+builder returns), ``occ_shapes``, ``faces``, ``beam``, ``crankshaft``, ``conrod`` and
+``meshing``.
 """
 from __future__ import annotations
 
@@ -21,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 from geometry.element_order import element_order_warning
 from geometry.estimate import MeshEstimate, estimate_mesh
-from geometry.params import BeamParams, CrankshaftParams, MeshParams
+from geometry.params import BeamParams, ConrodParams, CrankshaftParams, MeshParams
 from geometry.sections import SECTIONS
 
 from geometry.info import MeshInfo
@@ -29,7 +32,7 @@ from geometry.info import MeshInfo
 if TYPE_CHECKING:
     from geometry.meshing import build_msh
 
-__all__ = ["BeamParams", "CrankshaftParams", "MeshEstimate", "MeshInfo", "MeshParams", "SECTIONS",
+__all__ = ["BeamParams", "ConrodParams", "CrankshaftParams", "MeshEstimate", "MeshInfo", "MeshParams", "SECTIONS",
            "build_msh", "element_order_warning", "estimate_mesh", "section_area"]
 
 

@@ -21,7 +21,10 @@ from pathlib import Path
 from typing import Any
 
 from geometry.errors import GeometryError
-from geometry.params import BeamParams, CrankshaftParams, Geometry, MeshParams
+from geometry.params import BeamParams, ConrodParams, CrankshaftParams, Geometry, MeshParams
+
+#: The parameter type of each ``kind``.
+PARAMS = {"beam": BeamParams, "crankshaft": CrankshaftParams, "conrod": ConrodParams}
 
 
 def params_to_json(geom: Geometry, mesh: MeshParams) -> dict[str, Any]:
@@ -32,7 +35,7 @@ def params_to_json(geom: Geometry, mesh: MeshParams) -> dict[str, Any]:
 def params_from_json(data: dict[str, Any]) -> tuple[Geometry, MeshParams]:
     """Inverse of :func:`params_to_json` (lists back to the tuples the dataclasses hold)."""
     raw = dict(data["geometry"])
-    cls = BeamParams if raw.pop("kind") == "beam" else CrankshaftParams
+    cls = PARAMS[raw.pop("kind")]
     init = {f.name for f in fields(cls) if f.init}
     values = {key: _tuples(value) for key, value in raw.items() if key in init}
     if cls is BeamParams:

@@ -10,6 +10,9 @@ a = −0.015):
     beams:        e ≈ 1.22 (s/h)^1.87   (within 0.86–1.09 of 26 measurements, e ≤ 10 %)
     crankshafts:  e ≈ 0.91 (s/t)^1.76   (within 0.89–1.11 of 9, e ≤ 19 %)
 
+A connecting rod is read as a beam of its shank's I-section (not measured: its first modes
+bend the shank).
+
 h is the section's bending depth √(12 I_min/A), t the web thickness, s the element size
 Gmsh will use there (``[mesh] size``, capped by Gmsh's own cap and, on a round section or
 web, by the curvature size; ``geometry.estimate``). The warning recommends order = 2 when
@@ -20,7 +23,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from geometry.estimate import beam_volume_size, curvature_size, effective_size
-from geometry.params import BeamParams, Geometry, MeshParams
+from geometry.conrod_layout import shank_profile
+from geometry.params import BeamParams, ConrodParams, Geometry, MeshParams
 
 #: A predicted first-bending-frequency error above this recommends order = 2.
 WARNING_THRESHOLD = 0.05
@@ -65,6 +69,9 @@ def resolution(geom: Geometry, mesh: MeshParams) -> Resolution:
     if isinstance(geom, BeamParams):
         return Resolution(BEAM_LAW, beam_volume_size(geom, size), geom.profile().bending_depth,
                           "the section's bending depth √(12 I/A)")
+    if isinstance(geom, ConrodParams):
+        return Resolution(BEAM_LAW, size, shank_profile(geom).bending_depth,
+                          "the shank's bending depth √(12 I/A)")
     return Resolution(CRANK_LAW, curvature_size(geom.web_width / 2.0, size), geom.web_thickness,
                       "web_thickness")
 

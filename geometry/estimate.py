@@ -4,7 +4,7 @@ A tetrahedral mesh of element size h has about a·V/h³ cells in a volume V, plu
 b·S/h² more along a surface S (smaller cells where the surface mesh is graded into the
 volume; all of them where the body is thinner than h). So the body is cut into regions,
 each meshed at one size: a beam is one region, a crankshaft one per journal, pin, web,
-nose and flange. A region's size is ``[mesh] size`` or, on a round surface, the curvature
+nose and flange, a connecting rod one per eye and its shank. A region's size is ``[mesh] size`` or, on a round surface, the curvature
 size 2πr/ELEMENTS_PER_CIRCLE if smaller, as Gmsh's ``MeshSizeFromCurvature`` makes it;
 a beam's volume takes the size of its largest round outline (the interior is
 interpolated from the boundary). Then
@@ -27,10 +27,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from geometry import groups
+from geometry import conrod_layout, groups
 from geometry.crank_layout import RoundPart, crank_layout, web_area_and_perimeter
-from geometry.params import ELEMENTS_PER_CIRCLE, BeamParams, CrankshaftParams, Geometry, \
-    MeshParams
+from geometry.params import ELEMENTS_PER_CIRCLE, BeamParams, ConrodParams, CrankshaftParams, \
+    Geometry, MeshParams
 from geometry.shapes import Circle, Polygon
 
 #: Fitted constants of the module docstring's model (cells, vertices, boundary triangles).
@@ -76,6 +76,8 @@ def bounding_box_diagonal(geom: Geometry) -> float:
     if isinstance(geom, BeamParams):
         width, height = geom.profile().outer.extent
         return math.hypot(geom.length, width, height)
+    if isinstance(geom, ConrodParams):
+        return math.hypot(*conrod_layout.bounding_box(geom))
     layout = crank_layout(geom)
     return math.hypot(layout.length, layout.width, layout.width)
 
@@ -110,6 +112,8 @@ def body_terms(geom: Geometry, size: float) -> Terms:
     """T_V and T_S of the whole body at ``[mesh] size`` (without refinement)."""
     if isinstance(geom, BeamParams):
         return _beam_terms(geom, size)
+    if isinstance(geom, ConrodParams):
+        return _conrod_terms(geom, size)
     return _crankshaft_terms(geom, size)
 
 
@@ -160,10 +164,27 @@ def _crankshaft_terms(p: CrankshaftParams, size: float) -> Terms:
     return terms
 
 
+def _conrod_terms(p: ConrodParams, size: float) -> Terms:
+    """Each eye an annulus meshed at its outer surface's size (outer and bore surfaces,
+    two faces), the shank a prism between the eyes at ``[mesh] size`` (its sides)."""
+    terms = Terms()
+    for eye in conrod_layout.eyes(p):
+        h = curvature_size(eye.radius, size)
+        ring = math.pi * (eye.radius**2 - eye.bore**2)
+        terms += Terms(ring * eye.width / h**3, 2.0 * (ring + math.pi * eye.radius * eye.width)
+                       / h**2 + 2.0 * math.pi * eye.bore * eye.width
+                       / curvature_size(eye.bore, size) ** 2)
+    shank, length = conrod_layout.shank_profile(p), conrod_layout.shank_length(p)
+    return terms + Terms(shank.area * length / size**3, shank.perimeter * length / size**2)
+
+
 def group_area_and_size(geom: Geometry, name: str, size: float) -> tuple[float, float]:
     """A surface group's area and the element size around it without refinement."""
     if isinstance(geom, BeamParams):
         return geom.profile().area, beam_volume_size(geom, size)
+    if isinstance(geom, ConrodParams):
+        eye = next(e for e in conrod_layout.eyes(geom) if e.name == name)
+        return 2.0 * math.pi * eye.bore * eye.width, curvature_size(eye.bore, size)
     parts = crank_layout(geom).parts
     if name in (groups.END_X0, groups.END_XL):
         part = parts[0] if name == groups.END_X0 else parts[-1]

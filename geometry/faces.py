@@ -44,13 +44,29 @@ def cylinder_x(faces: list[Face], centre: tuple[float, float], radius: float,
                x0: float, x1: float, tol: float) -> list[int]:
     """Tags of the cylindrical faces on the cylinder of ``radius`` about the line parallel
     to x through (y, z) = ``centre``, between x0 and x1."""
+    return _cylinder(faces, 0, centre, radius, (x0, x1), tol)
+
+
+def cylinder_z(faces: list[Face], centre: tuple[float, float], radius: float,
+               z0: float, z1: float, tol: float) -> list[int]:
+    """Tags of the cylindrical faces on the cylinder of ``radius`` about the line parallel
+    to z through (x, y) = ``centre``, between z0 and z1."""
+    return _cylinder(faces, 2, centre, radius, (z0, z1), tol)
+
+
+def _cylinder(faces: list[Face], axis: int, centre: tuple[float, float], radius: float,
+              span: tuple[float, float], tol: float) -> list[int]:
+    """Tags of the cylindrical faces about the line parallel to coordinate ``axis`` through
+    ``centre`` (the other two coordinates, in order), within ``span`` along it."""
+    across = [i for i in range(3) if i != axis]
     found = []
     for f in faces:
         if f.kind != "Cylinder":
             continue
-        r = np.hypot(f.points[:, 1] - centre[0], f.points[:, 2] - centre[1])
-        x = f.points[:, 0]
-        if np.all(np.abs(r - radius) <= tol) and np.all((x >= x0 - tol) & (x <= x1 + tol)):
+        r = np.hypot(f.points[:, across[0]] - centre[0], f.points[:, across[1]] - centre[1])
+        along = f.points[:, axis]
+        if np.all(np.abs(r - radius) <= tol) and np.all(
+                (along >= span[0] - tol) & (along <= span[1] + tol)):
             found.append(f.tag)
     return found
 

@@ -2,7 +2,9 @@
 
 A feature is a length the model has to resolve: a wall, flange, web or leg of a section, a
 polygon's shortest edge, narrowest spike or notch and 2A/P, a crankshaft's journals, pins,
-webs and the shoulders of its nose and flange, a beam's length. Each is checked twice:
+webs and the shoulders of its nose and flange, a beam's length, a connecting rod's bores,
+eye walls and widths, its shank's flanges, web and length, and the steps where the shank
+meets an eye. Each is checked twice:
 
 - Against the geometry kernel. OpenCASCADE takes points closer than 1e-7 model units
   (``Precision::Confusion``) for one, and ``geometry.meshing`` models the body in units of
@@ -30,6 +32,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from geometry.conrod_layout import shank_length
 from geometry.crank_layout import FLANGE_LENGTH, NOSE_DIAMETER
 from geometry.errors import GeometryError
 from geometry.polygon import narrowest_gap, shortest_edge
@@ -37,7 +40,7 @@ from geometry.sections import Dimensions
 from geometry.shapes import Polygon
 
 if TYPE_CHECKING:
-    from geometry.params import CrankshaftParams, Geometry
+    from geometry.params import ConrodParams, CrankshaftParams, Geometry
 
 #: Features below this fraction of the body's largest extent are refused (module docstring).
 KERNEL_RESOLUTION = 1e-5
@@ -122,10 +125,36 @@ def _crankshaft(p: CrankshaftParams) -> list[Feature]:
     return found
 
 
+def _conrod(p: ConrodParams) -> list[Feature]:
+    found = [Feature("length", "the shank between the eyes (length − big_end_diameter/2 − "
+                     "small_end_diameter/2)", shank_length(p)),
+             Feature("flange_thickness", "a flange (flange_thickness)", p.flange_thickness),
+             Feature("web_thickness", "the web (web_thickness)", p.web_thickness),
+             Feature("web_thickness", "the flanges' overhang beyond the web (shank_width − "
+                     "web_thickness)/2", (p.shank_width - p.web_thickness) / 2),
+             Feature("flange_thickness", "the web's height between the flanges (shank_height − "
+                     "2·flange_thickness)", p.shank_height - 2 * p.flange_thickness)]
+    for end, eye in (("big_end", "the big eye"), ("small_end", "the small eye")):
+        bore, diameter, width = (getattr(p, f"{end}_{key}")
+                                 for key in ("bore", "diameter", "width"))
+        found += [Feature(f"{end}_bore", f"{eye}'s bore ({end}_bore)", bore),
+                  Feature(f"{end}_bore", f"{eye}'s wall ({end}_diameter − {end}_bore)/2",
+                          (diameter - bore) / 2),
+                  Feature(f"{end}_width", f"{eye}'s width ({end}_width)", width),
+                  Feature("shank_height", f"{eye} beyond the shank ({end}_diameter − "
+                          "shank_height)/2", (diameter - p.shank_height) / 2)]
+        if width > p.shank_width:  # flush faces are no feature; a step beside the shank is
+            found.append(Feature("shank_width", f"the step from the shank to {eye}'s faces "
+                                 f"({end}_width − shank_width)/2", (width - p.shank_width) / 2))
+    return found
+
+
 def features(geom: Geometry) -> list[Feature]:
     """Every feature of ``geom`` that the kernel and the mesh must resolve."""
     if geom.kind == "crankshaft":
         return _crankshaft(geom)
+    if geom.kind == "conrod":
+        return _conrod(geom)
     return [*_SECTION_FEATURES[geom.section](geom.dimensions),
             Feature("length", "the length", geom.length)]
 

@@ -28,10 +28,11 @@ from geometry.beam import add_beam
 from geometry.errors import GeometryError, KernelFailure
 from geometry.info import MeshInfo
 from geometry.solid import Solid
+from geometry.conrod import add_conrod
 from geometry.crankshaft import add_crankshaft
 from geometry.extent import largest_extent
-from geometry.params import (ELEMENTS_PER_CIRCLE, BeamParams, CrankshaftParams, Geometry,
-                             MeshParams, geometry_keys, model_unit, surface_groups)
+from geometry.params import (ELEMENTS_PER_CIRCLE, BeamParams, ConrodParams, CrankshaftParams,
+                             Geometry, MeshParams, geometry_keys, model_unit, surface_groups)
 
 SetOption = Callable[[str, float], None]  # gmsh.option.setNumber, undone after the session
 MODEL_NAME = "gcms_geometry"  # the model a session works in inside someone else's Gmsh
@@ -97,6 +98,7 @@ def add_body(geom) -> Solid:
 
 add_body.register(BeamParams, add_beam)
 add_body.register(CrankshaftParams, add_crankshaft)
+add_body.register(ConrodParams, add_conrod)
 
 
 def _add_physical_groups(geom: Geometry, body: Solid) -> dict[str, tuple[int, int]]:

@@ -15,7 +15,7 @@ from typing import Any
 from geometry import groups
 from geometry.sections import Dimensions, Profile, section_profile
 
-KINDS = ("beam", "crankshaft")
+KINDS = ("beam", "crankshaft", "conrod")
 MAX_THROWS = 16  # more than any inline engine has; the group tags would allow 99
 #: The default crankshaft mesh size as a fraction of web_thickness: about two elements
 #: through a web, ~27k nodes at order 2 for the default inline-4.
@@ -42,6 +42,27 @@ CRANKSHAFT_DEFAULTS: dict[str, Any] = {
 }
 CRANK_LENGTHS = ("stroke", "journal_diameter", "journal_length", "pin_diameter",
                   "pin_length", "web_thickness", "web_width")
+
+#: The default connecting-rod mesh size as a fraction of its thinner shank wall
+#: (min(flange_thickness, web_thickness)): the crankshaft's fraction of its webs.
+CONROD_SIZE_PER_WALL = CRANK_SIZE_PER_WEB_THICKNESS
+
+#: A plausible passenger-car inline-4 connecting rod (metres), for the default crankshaft:
+#: its big-end bore is the crank pin's diameter and its big end is narrower than the pin.
+CONROD_DEFAULTS: dict[str, float] = {
+    "length": 0.145,
+    "big_end_bore": 0.048,
+    "big_end_diameter": 0.068,
+    "big_end_width": 0.022,
+    "small_end_bore": 0.022,
+    "small_end_diameter": 0.032,
+    "small_end_width": 0.020,
+    "shank_height": 0.024,
+    "shank_width": 0.018,
+    "flange_thickness": 0.005,
+    "web_thickness": 0.006,
+}
+CONROD_LENGTHS = tuple(CONROD_DEFAULTS)
 
 
 def default_crank_angles(throws: int) -> tuple[float, ...]:
@@ -114,6 +135,30 @@ class CrankshaftParams:
 
 
 @dataclass(frozen=True)
+class ConrodParams:
+    """A connecting rod in the x–y plane: the big-end bore's centre at the origin, the small
+    end's at (length, 0, 0), both bores along z, an I-section shank along x between the two
+    eyes (see ``geometry.conrod_layout``), symmetric about y = 0 and z = 0."""
+
+    length: float = CONROD_DEFAULTS["length"]
+    big_end_bore: float = CONROD_DEFAULTS["big_end_bore"]
+    big_end_diameter: float = CONROD_DEFAULTS["big_end_diameter"]
+    big_end_width: float = CONROD_DEFAULTS["big_end_width"]
+    small_end_bore: float = CONROD_DEFAULTS["small_end_bore"]
+    small_end_diameter: float = CONROD_DEFAULTS["small_end_diameter"]
+    small_end_width: float = CONROD_DEFAULTS["small_end_width"]
+    shank_height: float = CONROD_DEFAULTS["shank_height"]
+    shank_width: float = CONROD_DEFAULTS["shank_width"]
+    flange_thickness: float = CONROD_DEFAULTS["flange_thickness"]
+    web_thickness: float = CONROD_DEFAULTS["web_thickness"]
+    kind: str = field(default="conrod", init=False)
+
+    def in_units(self, unit: float) -> ConrodParams:
+        """The same connecting rod with every length divided by ``unit``."""
+        return replace(self, **{key: in_units(getattr(self, key), unit) for key in CONROD_LENGTHS})
+
+
+@dataclass(frozen=True)
 class MeshParams:
     """Maximum element size (m), element order (1: 4-node, 2: curved 10-node tetrahedra)
     and finer sizes (m) near named surface groups."""
@@ -128,13 +173,15 @@ class MeshParams:
                           {name: in_units(size, unit) for name, size in self.refine.items()})
 
 
-Geometry = BeamParams | CrankshaftParams
+Geometry = BeamParams | CrankshaftParams | ConrodParams
 
 
 def geometry_keys(geom: Geometry) -> tuple[str, ...]:
     """The ``[geometry]`` keys that shape ``geom`` (besides ``kind``), for messages."""
     if isinstance(geom, BeamParams):
         return ("section", *geom.dimensions, "length")
+    if isinstance(geom, ConrodParams):
+        return CONROD_LENGTHS
     return ("throws", "crank_angles_deg", *CRANK_LENGTHS, "counterweights", "nose", "flange")
 
 
@@ -162,16 +209,22 @@ class DerivedLength(float):
 def default_mesh_size(geom: Geometry) -> DerivedLength:
     """Beams: 2A/P of the section (≈ the wall thickness of a thin-walled section, half the
     side of a solid square): about one element through the thinnest wall.
-    Crankshafts: 0.6 · web_thickness."""
+    Crankshafts: 0.6 · web_thickness. Connecting rods: 0.6 · the thinner shank wall."""
     if isinstance(geom, BeamParams):
         return DerivedLength(geom.profile().feature_size,
                              f"2·area/perimeter of the {geom.section} section, the default")
+    if isinstance(geom, ConrodParams):
+        return DerivedLength(CONROD_SIZE_PER_WALL * min(geom.flange_thickness, geom.web_thickness),
+                             f"{CONROD_SIZE_PER_WALL:g} × min(flange_thickness, web_thickness), "
+                             "the default")
     return DerivedLength(CRANK_SIZE_PER_WEB_THICKNESS * geom.web_thickness,
                          f"{CRANK_SIZE_PER_WEB_THICKNESS:g} × web_thickness, the default")
 
 
 def surface_groups(geom: Geometry) -> dict[str, int]:
     """The named surface groups of ``geom`` and their physical tags."""
+    if isinstance(geom, ConrodParams):
+        return dict(groups.CONROD_TAGS)
     return groups.surface_tags(geom.throws if isinstance(geom, CrankshaftParams) else None)
 
 

@@ -231,6 +231,7 @@ def _parser_keys() -> dict[str, set[str]]:
         for section in sections.SECTION_KEYS:
             attempt(geometry.parse_geometry, {"kind": "beam", "section": section})
         attempt(geometry.parse_geometry, {"kind": "crankshaft"})
+        attempt(geometry.parse_geometry, {"kind": "conrod"})
         crank = geometry.parse_geometry({"kind": "crankshaft"})
         attempt(geometry.parse_mesh, {"size": 0.01, "order": 2, "refine": {}}, crank)
         attempt(material.parse_material, {})

@@ -11,7 +11,7 @@ import pytest
 from geometry import build_msh
 from gcms_fenicsx.config.geometry import parse_geometry, parse_mesh
 from geometry.meshing import gmsh_session
-from geometry.params import CRANKSHAFT_DEFAULTS
+from geometry.params import CONROD_DEFAULTS, CRANKSHAFT_DEFAULTS
 
 SCALES = (1e-3, 1.0, 1e3)
 EPS = np.finfo(float).eps
@@ -43,7 +43,8 @@ def nodes_of(path) -> np.ndarray:
     ({"kind": "beam", "section": "tube", "radius": 0.02, "thickness": 0.004, "length": 0.2},
      {"size": 0.01, "order": 1, "refine": {"end_x0": 0.004}}),
     (TWO_THROWS, {"size": 0.02, "order": 2}),
-], ids=["I", "tube-refined", "crankshaft"])
+    ({"kind": "conrod", **CONROD_DEFAULTS}, {"size": 0.005, "order": 2}),
+], ids=["I", "tube-refined", "crankshaft", "conrod"])
 def test_scaled_bodies_get_the_scaled_mesh(tmp_path, geometry, mesh):
     """Before, Gmsh's and OCC's absolute tolerances made the I beam 6540 / 6526 / 6516 nodes
     at 1e-3 / 1 / 1e3 and the 1e-3 crankshaft folded curved cells. Each coordinate in

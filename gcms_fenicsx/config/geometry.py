@@ -2,8 +2,8 @@
 
 Every check runs here, before Gmsh is touched: a bad value raises ConfigError naming the key
 (``[geometry] thickness``), the value and what is allowed, including constraints between
-keys (a wall thicker than half the section, a pin that does not fit the throw, a mesh size
-larger than the body) and features too small for the geometry kernel or the mesh size
+keys (a wall thicker than half the section, a pin that does not fit the throw, a connecting
+rod's bore wider than its eye, a mesh size larger than the body) and features too small for the geometry kernel or the mesh size
 (``geometry.features``, whose GeometryError becomes the same ConfigError). Unknown keys are
 rejected. Lengths in metres.
 """
@@ -11,17 +11,21 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import Any, Mapping
+from typing import Any, Mapping, TypeVar
 
 from geometry.errors import GeometryError
 from geometry.extent import largest_extent
 from geometry.features import check_kernel_resolution, check_mesh_resolution
-from geometry.params import (CRANK_LENGTHS, CRANKSHAFT_DEFAULTS, KINDS, MAX_THROWS, BeamParams,
-                             CrankshaftParams, Geometry, MeshParams, crank_violation,
-                             default_crank_angles, default_mesh_size, surface_groups)
+from geometry.conrod_layout import conrod_violation
+from geometry.params import (CONROD_DEFAULTS, CONROD_LENGTHS, CRANK_LENGTHS, CRANKSHAFT_DEFAULTS,
+                             KINDS, MAX_THROWS, BeamParams, ConrodParams, CrankshaftParams,
+                             Geometry, MeshParams, crank_violation, default_crank_angles,
+                             default_mesh_size, surface_groups)
 from geometry.sections import SECTION_KEYS, SECTIONS, section_violation
 
 from gcms_fenicsx.config.table import ConfigError, Table
+
+G = TypeVar("G", BeamParams, CrankshaftParams, ConrodParams)
 
 
 def _checked(check: Callable[..., None], *args: Any) -> None:
@@ -36,7 +40,19 @@ def parse_geometry(raw: Mapping[str, Any] | None) -> Geometry:
     """Validate ``[geometry]``: ``kind`` (required) and the keys of that kind."""
     table = Table("geometry", raw)
     kind = table.choice("kind", KINDS)
-    return _parse_beam(table) if kind == "beam" else _parse_crankshaft(table)
+    parse = {"beam": _parse_beam, "crankshaft": _parse_crankshaft, "conrod": _parse_conrod}
+    return parse[kind](table)
+
+
+def _resolvable(t: Table, violation: tuple[str, str] | None, values: Mapping[str, Any],
+                geom: G) -> G:
+    """``geom``, unless ``violation`` (key, what is allowed) names a key of ``values`` that
+    does not fit the others, or a feature is below the kernel's resolution."""
+    if violation:
+        key, allowed = violation
+        raise t.error(key, values[key], allowed)
+    _checked(check_kernel_resolution, geom, largest_extent(geom))
+    return geom
 
 
 def _parse_beam(t: Table) -> BeamParams:
@@ -78,12 +94,15 @@ def _parse_crankshaft(t: Table) -> CrankshaftParams:
     flags = {key: t.boolean(key, d[key]) for key in ("counterweights", "nose", "flange")}
     t.finish()
     violation = crank_violation(lengths, [key for key in CRANK_LENGTHS if t.has(key)])
-    if violation:
-        key, allowed = violation
-        raise t.error(key, lengths[key], allowed)
-    crank = CrankshaftParams(throws=throws, crank_angles_deg=tuple(angles), **lengths, **flags)
-    _checked(check_kernel_resolution, crank, largest_extent(crank))
-    return crank
+    return _resolvable(t, violation, lengths, CrankshaftParams(
+        throws=throws, crank_angles_deg=tuple(angles), **lengths, **flags))
+
+
+def _parse_conrod(t: Table) -> ConrodParams:
+    lengths = {key: t.positive(key, CONROD_DEFAULTS[key]) for key in CONROD_LENGTHS}
+    t.finish()
+    violation = conrod_violation(lengths, [key for key in CONROD_LENGTHS if t.has(key)])
+    return _resolvable(t, violation, lengths, ConrodParams(**lengths))
 
 
 def parse_mesh(raw: Mapping[str, Any] | None, geom: Geometry) -> MeshParams:
