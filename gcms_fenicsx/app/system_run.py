@@ -54,13 +54,17 @@ def members(cfg: SystemConfig, models: dict[str, ReducedModel]) -> tuple:
     from gcms_fenicsx.dynamics.system.members import Flexible, PointMass, placed_coordinates
     from gcms_fenicsx.dynamics.system.rigid import rigid_body, rigid_member, rigid_twin
 
+    bodies: dict[int, Any] = {}       # one Body per reduced model, however many share it
+
     def member(spec: Any, x0: np.ndarray) -> Any:
         R0 = spec.placement.matrix
-        if isinstance(spec, FlexibleSpec) and spec.as_rigid:
-            return rigid_member(spec.name, rigid_twin(body_from_reduced(models[spec.name])),
-                                R0, x0)
         if isinstance(spec, FlexibleSpec):
-            body = body_from_reduced(models[spec.name])
+            model = models[spec.name]
+            if id(model) not in bodies:
+                bodies[id(model)] = body_from_reduced(model)
+            body = bodies[id(model)]
+            if spec.as_rigid:
+                return rigid_member(spec.name, rigid_twin(body), R0, x0)
             return Flexible(spec.name, body, placed_coordinates(body, R0, x0))
         if isinstance(spec, RigidSpec):
             body = rigid_body(spec.mass_kg, np.array(spec.center_m),
