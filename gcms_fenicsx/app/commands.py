@@ -159,13 +159,11 @@ def run(config: Path | None, out: Path, fresh: bool = False) -> str:
     return finished(texts, summary)
 
 
-def run_system(cfg: SystemConfig, out: Path, fresh: bool = False) -> str:
-    """A system study: each flexible body's stages in ``out``/bodies/NAME (its own cache), then
-    the assembly stepped on rank 0, its files (``system_run.SYSTEM_FILES``) published into
-    ``out`` together."""
-    comm = _world()
-    progress = progress_printer(comm.rank)
-    on_rank0(comm, check_out, out)
+def system_models(cfg: SystemConfig, out: Path, fresh: bool, comm: Any, progress: Progress
+                  ) -> tuple[dict[str, ReducedModel], dict[str, dict], list[str]]:
+    """Each flexible body's stages in ``out``/bodies/NAME (its own cache): (the reduced model
+    of each flexible body, its stages for summary.json, the stages' lines). Bodies of the
+    same study and joints share the first one's model (``model_of``)."""
     models, stages, texts, first = {}, {}, [], {}
     for body in cfg.flexible:
         if body.model_key in first:          # the same study and joints: one reduced model
@@ -182,6 +180,17 @@ def run_system(cfg: SystemConfig, out: Path, fresh: bool = False) -> str:
             pass
         models[body.name], stages[body.name] = built.model, built.stages
         texts += [f"{body.name}: {line}" for line in built.texts]
+    return models, stages, texts
+
+
+def run_system(cfg: SystemConfig, out: Path, fresh: bool = False) -> str:
+    """A system study: each flexible body's stages (:func:`system_models`), then the assembly
+    stepped on rank 0, its files (``system_run.SYSTEM_FILES``) published into ``out``
+    together."""
+    comm = _world()
+    progress = progress_printer(comm.rank)
+    on_rank0(comm, check_out, out)
+    models, stages, texts = system_models(cfg, out, fresh, comm, progress)
     with staged_output(out, comm, system_run.SYSTEM_FILES) as folder:
         summary = on_rank0(comm, system_run.simulate_system, cfg, models, folder, progress)
         if comm.rank == 0:

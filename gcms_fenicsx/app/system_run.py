@@ -6,8 +6,10 @@ into ``--out``, published together when the run succeeded (``files.outputs.stage
 Files (docs/files.md): ``system.h5`` — ``time_s``, ``iterations``, ``energy/*``, the kept rows
 (``rows/joint``, ``rows/kind``, ``rows/axis``, ``rows/unit``) and their ``multipliers``, each
 joint's force and moment on its first body (``joints/NAME/force_n``, ``moment_nm``: −Σ λ_k
-a_k over its force and moment rows, a_k the rows' axes at the start) and each body's
-coordinates (``bodies/NAME/q``); ``summary.json``; ``system_joints.png``.
+a_k over its force and moment rows, a_k the rows' axes at the start; a drive's torque
+``drive_torque_nm``), with an ``[engine]`` the crank angle and the gas forces
+(``engine/*``), and each body's coordinates (``bodies/NAME/q``); ``summary.json``;
+``system_joints.png``.
 """
 from __future__ import annotations
 
@@ -47,9 +49,11 @@ def load_system(path: Path, raw: dict[str, Any]) -> SystemConfig:
     return parse_system(raw, str(path), Path(path).resolve().parent)
 
 
-def members(cfg: SystemConfig, models: dict[str, ReducedModel]) -> tuple:
-    """The assembly's members, placed: flexible bodies of their reduced models, rigid bodies,
-    point masses."""
+def members(cfg: SystemConfig, models: dict[str, ReducedModel],
+            full_order: dict[str, Any] | None = None) -> tuple:
+    """The assembly's members, placed: flexible bodies of their reduced models (or, for a name
+    in ``full_order``, its full-order Body, ``references.full_order``: F = I, a sparse LU of
+    its iteration matrix), rigid bodies, point masses."""
     from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
     from gcms_fenicsx.dynamics.system.members import Flexible, PointMass, placed_coordinates
     from gcms_fenicsx.dynamics.system.rigid import rigid_body, rigid_member, rigid_twin
@@ -58,6 +62,11 @@ def members(cfg: SystemConfig, models: dict[str, ReducedModel]) -> tuple:
 
     def member(spec: Any, x0: np.ndarray) -> Any:
         R0 = spec.placement.matrix
+        if isinstance(spec, FlexibleSpec) and spec.name in (full_order or {}):
+            from gcms_fenicsx.references.full_order import sparse_factorization
+            body = full_order[spec.name]
+            return Flexible(spec.name, body, placed_coordinates(body, R0, x0),
+                            factorize=sparse_factorization)
         if isinstance(spec, FlexibleSpec):
             model = models[spec.name]
             if id(model) not in bodies:
@@ -120,14 +129,13 @@ def start_velocity(cfg: SystemConfig, made: tuple) -> np.ndarray:
     return np.concatenate(parts)
 
 
-def simulate_system(cfg: SystemConfig, models: dict[str, ReducedModel], folder: Path,
-                    progress: Progress) -> dict:
-    """Assemble, step and write ``folder``/system.h5 and the summary (rank 0)."""
+def build_system(cfg: SystemConfig, models: dict[str, ReducedModel],
+                 full_order: dict[str, Any] | None = None) -> tuple[tuple, Any, Any]:
+    """(members, assembly, stepper) of the study (:func:`members`, ``full_order`` as there)."""
     from gcms_fenicsx.dynamics.system.assembly import AssemblyError, assemble
-    from gcms_fenicsx.dynamics.system.march import march
-    from gcms_fenicsx.dynamics.system.stepper import AssemblyStepper, StepSettings, initial_state
+    from gcms_fenicsx.dynamics.system.stepper import AssemblyStepper, StepSettings
 
-    made = members(cfg, models)
+    made = members(cfg, models, full_order)
     by_name = {m.name: m for m in made}
     rows = tuple(r for spec in cfg.joints for r in joint_rows(spec, by_name))
     try:
@@ -137,15 +145,46 @@ def simulate_system(cfg: SystemConfig, models: dict[str, ReducedModel], folder: 
     stepper = AssemblyStepper(assembly, StepSettings(cfg.time_step_s, cfg.rho_inf,
                                                      cfg.tolerance, cfg.max_iterations),
                               gas_loads(cfg, assembly))
+    return made, assembly, stepper
+
+
+def full_order_body(spec: FlexibleSpec, folder: Path, progress: Progress) -> Any:
+    """Reference (a) of a flexible body: its full-order Body (``references.full_order``: every
+    node of its mesh, F = I), for :func:`build_system`'s ``full_order`` — the body meshed
+    into ``folder``, its K, M and Ms assembled, its node groups as the reduced model's."""
+    from gcms_fenicsx.app.pipeline import assembly_stage, body_mesh, mesh_stage
+    from gcms_fenicsx.fe.node_groups import group_weights
+    from gcms_fenicsx.references import full_order
+
+    plan = spec.study.plan.body
+    folder.mkdir(parents=True, exist_ok=True)
+    mesh = body_mesh(mesh_stage(plan.geometry, plan.mesh, folder, progress))
+    model = assembly_stage(mesh.mesh, plan.material, progress=progress).model
+    return full_order.full_order_body(model, group_weights(mesh, model.Vs))
+
+
+def simulate_system(cfg: SystemConfig, models: dict[str, ReducedModel], folder: Path,
+                    progress: Progress) -> dict:
+    """Assemble, step and write ``folder``/system.h5 and the summary (rank 0)."""
+    from gcms_fenicsx.dynamics.system.march import march
+    from gcms_fenicsx.dynamics.system.stepper import initial_state
+
+    made, assembly, stepper = build_system(cfg, models)
     progress(f"system: {len(made)} bodies, {assembly.dofs} coordinates, {assembly.count} joint "
              f"rows ({len(assembly.dropped)} implied by others, dropped); stepping to "
              f"{cfg.end_time_s:g} s at {cfg.time_step_s:g} s")
-    probes = {m.name: (lambda s, where=assembly.offsets[m.name]: s.q[where]) for m in made}
     run = march(stepper, initial_state(stepper, start_velocity(cfg, made)), cfg.end_time_s,
-                every=cfg.record_every, probes=probes, progress=progress)
+                every=cfg.record_every, probes=body_probes(assembly), progress=progress)
     forces = joint_forces(assembly, run.multipliers, {j.name for j in cfg.joints})
-    write_system(folder / "system.h5", assembly, run, forces)
+    engine = engine_series(cfg, stepper.loads, assembly.offsets, run.time_s)
+    write_system(folder / "system.h5", assembly, run, forces, engine)
     return system_summary(cfg, assembly, run, forces)
+
+
+def body_probes(assembly: Any) -> dict[str, Any]:
+    """Each member's coordinates, recorded as ``bodies/NAME/q``."""
+    return {m.name: (lambda s, where=assembly.offsets[m.name]: s.q[where])
+            for m in assembly.members}
 
 
 def gas_loads(cfg: SystemConfig, assembly: Any) -> Any:
@@ -157,8 +196,7 @@ def gas_loads(cfg: SystemConfig, assembly: Any) -> Any:
     engine = cfg.engine
     if engine is None:
         return None
-    curve = (gas_pressure.petrol_full_load() if engine.pressure == "petrol_full_load"
-             else gas_pressure.PressureCurve(*engine.pressure))
+    curve = pressure_curve(engine)
     firing = gas_pressure.firing_angles(engine.firing_order, engine.first_firing_deg)
     cylinders = tuple(gas_pressure.Cylinder(piston, engine.bore_m,
                                             np.array(engine.towards_crank), firing[k + 1], curve)
@@ -172,11 +210,20 @@ def gas_loads(cfg: SystemConfig, assembly: Any) -> Any:
     return lambda t: gas(t) * (0.5 * (1.0 - math.cos(math.pi * t / T)) if t < T else 1.0)
 
 
+def pressure_curve(engine: Any) -> Any:
+    """The ``[engine]``'s pressure curve (``gas_pressure``): the built-in one or its table."""
+    from gcms_fenicsx.dynamics.system import gas_pressure
+
+    return (gas_pressure.petrol_full_load() if engine.pressure == "petrol_full_load"
+            else gas_pressure.PressureCurve(*engine.pressure))
+
+
 def joint_forces(assembly: Any, multipliers: np.ndarray, joints: set[str]
                  ) -> dict[str, dict[str, np.ndarray]]:
     """Each of ``joints``' force (N) and moment (N·m) on its first body: −Σ λ_k a_k over its
     rows of that kind (rows named NAME or NAME/…; ``joint_types``), a_k the rows' axes at the
-    start (a rigid body's rigidity rows are not joints)."""
+    start (a rigid body's rigidity rows are not joints); a driven joint's ``drive_torque_nm``
+    too: −λ of its row NAME/drive, the torque the drive puts on the body about its axis."""
     found: dict[str, dict[str, np.ndarray]] = {}
     for k, info in enumerate(assembly.rows):
         name = info.joint.split("/")[0]
@@ -185,10 +232,29 @@ def joint_forces(assembly: Any, multipliers: np.ndarray, joints: set[str]
         key = "force_n" if info.kind == "force" else "moment_nm"
         entry = found.setdefault(name, {})
         entry[key] = entry.get(key, 0.0) - multipliers[:, k, None] * np.array(info.axis)
+        if info.joint == f"{name}/drive":
+            entry["drive_torque_nm"] = -multipliers[:, k]
     return found
 
 
-def write_system(path: Path, assembly: Any, run: Any, forces: dict) -> None:
+def engine_series(cfg: SystemConfig, gas: Any, offsets: dict[str, slice],
+                  time_s: np.ndarray) -> dict[str, np.ndarray]:
+    """What ``[engine]`` did at the recorded times: ``crank_angle_deg`` (the crank drive's
+    angle) and ``gas_force_n`` (times × cylinders, N towards the crank, the ramp included);
+    empty without an engine."""
+    engine = cfg.engine
+    if engine is None:
+        return {}
+    drive = next(j.drive for j in cfg.joints if j.name == engine.crank_drive)
+    towards = np.array(engine.towards_crank)
+    forces = np.array([[gas(t)[offsets[p]].dot(towards) for p in engine.pistons]
+                       for t in time_s])
+    return {"crank_angle_deg": np.degrees([drive.angle(t)[0] for t in time_s]),
+            "gas_force_n": forces}
+
+
+def write_system(path: Path, assembly: Any, run: Any, forces: dict,
+                 engine: dict[str, np.ndarray]) -> None:
     """``system.h5`` (module docstring), written atomically."""
     text = h5py.string_dtype()
     with atomic_file(path) as tmp, h5py.File(tmp, "w") as f:
@@ -203,6 +269,8 @@ def write_system(path: Path, assembly: Any, run: Any, forces: dict) -> None:
         for name, entry in forces.items():
             for key, values in entry.items():
                 f[f"joints/{name}/{key}"] = values
+        for key, values in engine.items():
+            f[f"engine/{key}"] = values
         for name, values in run.probes.items():
             f[f"bodies/{name}/q"] = values
 
@@ -210,7 +278,8 @@ def write_system(path: Path, assembly: Any, run: Any, forces: dict) -> None:
 def system_summary(cfg: SystemConfig, assembly: Any, run: Any, forces: dict) -> dict:
     """summary.json of a system run."""
     steps_per_s = run.steps / run.wall_time_s if run.wall_time_s > 0 else None
-    peak = {name: {"peak_" + key: float(np.linalg.norm(v, axis=1).max())
+    peak = {name: {"peak_" + key: float(np.abs(v).max() if v.ndim == 1
+                                        else np.linalg.norm(v, axis=1).max())
                    for key, v in entry.items()} for name, entry in forces.items()}
     return {
         "kind": "system", "complete": True, "source": cfg.source,
@@ -238,7 +307,9 @@ def system_text(summary: dict) -> str:
     for name, joint in summary["joints"].items():
         peaks = [f"peak force {joint['peak_force_n']:.4g} N" if "peak_force_n" in joint else "",
                  f"peak moment {joint['peak_moment_nm']:.4g} N·m"
-                 if "peak_moment_nm" in joint else ""]
+                 if "peak_moment_nm" in joint else "",
+                 f"peak drive torque {joint['peak_drive_torque_nm']:.4g} N·m"
+                 if "peak_drive_torque_nm" in joint else ""]
         lines.append(f"  joint {name} ({joint['type']}): " + ", ".join(p for p in peaks if p))
     return "\n".join(lines)
 

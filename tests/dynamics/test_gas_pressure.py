@@ -9,7 +9,8 @@
   expansion mirror each other about TDC;
 - a table is interpolated linearly and periodically, and a bad table is refused saying what
   is wrong; an inline four's firing order 1-3-4-2 puts the cylinders' firing TDCs 180° apart;
-  the piston force is (p − p_ambient) π D²/4;
+  the piston force is (p − p_ambient) π D²/4; the indicated work along the piston's path
+  ∮ (p − 1 bar) A dx_p is ∮ p dV along the volume's (IMEP · V_d);
 - a single-cylinder engine (a flexible conrod, a piston, a driven crank) takes the curve's
   indicated work from the gas over a cycle, and its drive takes it out.
 """
@@ -21,8 +22,8 @@ import numpy as np
 import pytest
 
 from gcms_fenicsx.dynamics.system.gas_pressure import (BAR, PressureCurve, firing_angles,
-                                                        petrol_full_load, piston_force_n,
-                                                        volume_ratio)
+                                                        indicated_work_j, petrol_full_load,
+                                                        piston_force_n, volume_ratio)
 
 EPSILON, CRANK_ROD, N = 10.5, 0.3, 1.32
 
@@ -43,6 +44,24 @@ def test_the_built_in_curve_is_a_petrol_engine_at_full_load():
     bdc = volume_ratio(np.array([180.0]), EPSILON, CRANK_ROD)[0]
     assert np.allclose(p[compression] * v[compression] ** N, 1.0 * BAR * bdc ** N, rtol=1e-3)
     assert p.min() >= 1.0 * BAR - 1e-9
+
+
+def test_the_indicated_work_along_the_pistons_path_is_the_volumes():
+    """∮ (p − 1 bar) A dx_p (``indicated_work_j``, x_p the exact kinematics) against ∮ p dV
+    over ``volume_ratio`` (V_c (ε − 1) = A · 2r): two formulas of the slider crank, two
+    trapezoidal grids (72,000 and 14,400 intervals); measured 8e-8 apart. The ambient
+    pressure does no work over a cycle; a rod shorter than its crank is refused."""
+    r, L, bore = 0.043, 0.143, 0.082
+    curve = petrol_full_load(crank_rod=r / L)
+    phi = np.arange(0.0, 720.0, 0.05)
+    v, p = volume_ratio(phi, EPSILON, r / L), curve(phi)
+    loop = np.sum(0.5 * (p[1:] + p[:-1]) * np.diff(v)) + 0.5 * (p[-1] + p[0]) * (v[0] - v[-1])
+    expected = loop / (EPSILON - 1.0) * math.pi * bore ** 2 / 4 * 2 * r
+    assert indicated_work_j(curve, bore, r, L) == pytest.approx(expected, rel=1e-6)
+    flat = PressureCurve(np.array([0.0, 360.0]), np.array([BAR, BAR]))
+    assert indicated_work_j(flat, bore, r, L) == pytest.approx(0.0, abs=1e-9)
+    with pytest.raises(ValueError, match="rod_m"):
+        indicated_work_j(curve, bore, r, r)
 
 
 def test_without_combustion_compression_and_expansion_mirror_each_other():

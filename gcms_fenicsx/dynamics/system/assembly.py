@@ -46,11 +46,16 @@ class BlockDiagonal:
 class MemberRows(NamedTuple):
     """A member's part of the kept rows: row ``index[i]`` has the Jacobian block kron(v_i, u_i)
     over its coordinates (``vectors`` k × its fields, constant); ``entries`` (joint, term, row
-    within the joint) says where u_i comes from."""
+    within the joint) says where u_i comes from. ``index`` is ascending; ``starts`` are the
+    positions where a new row begins (a row may have several terms on one member)."""
 
     index: np.ndarray
     vectors: np.ndarray
     entries: tuple[tuple[int, int, int], ...]
+
+    @property
+    def starts(self) -> np.ndarray:
+        return np.flatnonzero(np.diff(self.index, prepend=-1))
 
 
 @dataclass(frozen=True)
@@ -143,9 +148,10 @@ class Assembly:
         C = np.zeros((self.count, self.dofs))
         for name, u in self.directions(q, t).items():
             rows = self.member_rows[name]
-            if len(rows.index):
+            if len(rows.index):           # the blocks of one row summed (reduceat, not add.at)
                 block = (rows.vectors[:, :, None] * u[:, None, :]).reshape(len(u), -1)
-                np.add.at(C[:, self.offsets[name]], rows.index, block)
+                starts = rows.starts
+                C[rows.index[starts], self.offsets[name]] += np.add.reduceat(block, starts, axis=0)
         return C
 
 
