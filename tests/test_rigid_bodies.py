@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from gcms_fenicsx.config.scene import Drive
-from gcms_fenicsx.dynamics.system import rows
+from gcms_fenicsx.dynamics.system import relative_rows, rows
 from gcms_fenicsx.dynamics.system.assembly import assemble
 from gcms_fenicsx.dynamics.system.march import march
 from gcms_fenicsx.dynamics.system.members import PointMass
@@ -51,7 +51,7 @@ def test_the_rigid_slider_crank_is_its_closed_form():
         rows.keep_axis("pivot", crank, "a", Z),
         rows.drive("pivot", crank, "a", Z, Drive(ref.OMEGA)),
         rows.coincide("crank_pin", rows.group_point(rod, "a"), rows.group_point(crank, "b")),
-        rows.align_axes("crank_pin", rod, "a", crank, "b", Z),
+        relative_rows.align_axes("crank_pin", rod, "a", crank, "b", Z),
         rows.coincide("slider_pin", rows.group_point(rod, "b"), rows.mass_point(slider)),
         rows.on_line("guide", rows.mass_point(slider), [1.0, 0.0, 0.0])))
     assert [(r.joint, r.axis) for r in a.dropped] == [("guide", (0.0, 0.0, 1.0))]

@@ -32,7 +32,6 @@ from gcms_fenicsx.numerics.rotation import rotation_about
 SYSTEM_TABLES = ("system", "bodies", "joints", "engine")
 JOINT_TYPES = ("spherical", "revolute", "cylindrical", "prismatic", "fixed")
 #: Joints that hold one body to another (the rest hold a body to the ground only).
-BETWEEN_BODIES = ("spherical", "revolute")
 GROUND = "ground"
 #: Tables of a flexible body's study that may be given inline in [bodies.NAME].
 BODY_STUDY_TABLES = tuple(t for t in KNOWN_TABLES if t != "scene")
@@ -286,15 +285,14 @@ def _joint(t: Table, bodies: dict[str, BodySpec]) -> JointSpec:
         raise t.error("to_body", other, f"must be {GROUND!r} (the default) or another body: "
                       + ", ".join(b for b in bodies if b != name_of))
     to_point = _point(t, "to_point", bodies[other]) if other != GROUND else None
-    if other != GROUND and kind not in BETWEEN_BODIES:
-        raise t.error("type", kind, f"between two bodies a joint is one of {BETWEEN_BODIES} (a "
-                      f"{kind} joint between bodies is not built; it holds a body to the ground)")
-    if kind != "spherical" and any(isinstance(b, PointMassSpec) for b in
-                                   (body, bodies.get(other)) if b is not None) and (
-            kind in ("revolute", "fixed") or other != GROUND):
+    masses = [isinstance(b, PointMassSpec) for b in (body, bodies.get(other))]
+    if kind != "spherical" and (masses[0] and (other != GROUND or kind in ("revolute", "fixed"))
+                                or masses[1] and kind in ("revolute", "fixed")):
         raise t.error("type", kind, "a point mass has no rotation to hold: join it by a "
-                      "spherical joint, or to the ground by a prismatic one")
-    axis = _axis(t) if kind != "spherical" and kind != "fixed" else None
+                      "spherical joint, or put it on a line (cylindrical or prismatic) to the "
+                      "ground or as the to_body of another body's")
+    axis = (_axis(t) if kind not in ("spherical", "fixed") or kind == "fixed" and t.has("axis")
+            else None)
     drive = None
     if t.has("drive"):
         if kind != "revolute" or other != GROUND:

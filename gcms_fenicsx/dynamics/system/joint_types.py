@@ -11,12 +11,12 @@ import numpy as np
 
 from gcms_fenicsx.config.scene import Drive
 from gcms_fenicsx.dynamics.constraints.joints import plane_basis
-from gcms_fenicsx.dynamics.system import rows
+from gcms_fenicsx.dynamics.system import relative_rows, rows
 from gcms_fenicsx.dynamics.system.members import Flexible, PointMass
 
 Member = Flexible | PointMass
 GROUND_TYPES = ("spherical", "revolute", "cylindrical", "prismatic", "fixed")
-BETWEEN_TYPES = ("spherical", "revolute")
+BETWEEN_TYPES = ("spherical", "revolute", "cylindrical", "prismatic", "fixed")
 
 
 def point_of(member: Member, name: str | None) -> rows.Point:
@@ -71,14 +71,33 @@ def to_ground(joint: str, kind: str, member: Member, point: str | None,
 def between(joint: str, kind: str, a: Member, point_a: str | None, b: Member,
             point_b: str | None, axis: np.ndarray | None = None) -> tuple[rows.Row, ...]:
     """The rows of a joint of ``kind`` between two members' points: spherical (the points
-    together) or revolute (together, and ``axis`` of a's group kept parallel to b's)."""
+    together), revolute (together, and ``axis`` of a's group kept parallel to b's),
+    cylindrical (b's point on the line along a's axis, the axes parallel), prismatic (on the
+    line, no relative rotation), fixed (together, no relative rotation; about ``axis`` or z,
+    any three axes hold the same). The line is a's: a is the body (a cylinder, a guide), b the
+    point moving along it; a point mass has no rotation, so as b on a line only its point is
+    held, and it cannot be a or be held by a revolute or fixed joint."""
     if kind not in BETWEEN_TYPES:
         raise ValueError(f"joint {joint!r}: between two bodies a joint is one of "
                          f"{BETWEEN_TYPES}, got {kind!r}")
-    together = rows.coincide(joint, point_of(a, point_a), point_of(b, point_b))
     if kind == "spherical":
-        return (together,)
-    if isinstance(a, PointMass) or isinstance(b, PointMass):
-        raise ValueError(f"joint {joint!r}: a point mass has no rotation for a revolute joint")
-    return (together, rows.align_axes(f"{joint}/axis", a, point_a or "", b, point_b or "",
-                                      np.asarray(axis, float)))
+        return (rows.coincide(joint, point_of(a, point_a), point_of(b, point_b)),)
+    if isinstance(a, PointMass):
+        raise ValueError(f"joint {joint!r}: a point mass has no axis for a {kind} joint: "
+                         f"make {a.name!r} its to_body")
+    e = np.array([0.0, 0.0, 1.0]) if axis is None else np.asarray(axis, float)
+    if kind in ("cylindrical", "prismatic"):
+        held: tuple[rows.Row, ...] = (relative_rows.on_member_line(
+            joint, a, point_a or "", point_of(b, point_b), e),)
+    else:
+        held = (rows.coincide(joint, point_of(a, point_a), point_of(b, point_b)),)
+    if isinstance(b, PointMass):
+        if kind in ("revolute", "fixed"):
+            raise ValueError(f"joint {joint!r}: a point mass has no rotation for a {kind} "
+                             "joint")
+        return held
+    held += (relative_rows.align_axes(f"{joint}/axis", a, point_a or "", b, point_b or "", e),)
+    if kind in ("prismatic", "fixed"):
+        held += (relative_rows.hold_turn(f"{joint}/turn", a, point_a or "", b, point_b or "",
+                                         e),)
+    return held

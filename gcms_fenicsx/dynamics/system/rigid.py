@@ -24,7 +24,8 @@ import numpy as np
 from gcms_fenicsx.dynamics.bodies.body import Body, GroupRows, make_body
 from gcms_fenicsx.dynamics.system import checks
 from gcms_fenicsx.dynamics.system.members import Flexible, placed_coordinates
-from gcms_fenicsx.dynamics.system.rows import BilinearRow, Term
+from gcms_fenicsx.dynamics.system.relative_rows import BilinearRow
+from gcms_fenicsx.dynamics.system.rows import Term
 
 #: Q0 of the rigid fields: x₀ = 0, A = I.
 RIGID_Q0 = np.vstack([np.zeros(3), np.eye(3)])

@@ -15,10 +15,7 @@ direction), in one of three forms:
 - :class:`DrivenRow` — g = u(t) · (Qᵀ v) − g(0), u(t) = R_e(θ(t)) u₀ turned by a drive about
   the joint's axis (``joints.Constraints.directions_at``): :func:`drive` holds a group's
   rotation about a fixed axis at the drive's angle;
-- :class:`BilinearRow` — g = (Q_Aᵀ a) · (Q_Bᵀ b) − g(0) between two flexible members: its
-  term for A has the direction Q_Bᵀ b, for B Q_Aᵀ a. :func:`align_axes` keeps a direction of
-  one member's group parallel to the same direction of another's (the tilt rows of a
-  revolute joint between two bodies).
+- rows between two members whose directions turn with them: ``relative_rows``.
 
 Every row holds where the assembly starts (g(0) is its value there). For the initial state
 and the work of the rows each gives ∂g/∂t and γ with C q̈ = γ (the rest of g̈ = 0).
@@ -38,7 +35,7 @@ from gcms_fenicsx.config.scene import Drive
 from gcms_fenicsx.dynamics.constraints.joints import RowInfo, plane_basis, turned
 from gcms_fenicsx.dynamics.system import checks
 from gcms_fenicsx.dynamics.system.members import Flexible, PointMass
-from gcms_fenicsx.numerics.group_geometry import MIN_LEVER, lever
+from gcms_fenicsx.numerics.group_geometry import lever
 
 #: t ↦ (p, ṗ, p̈) of a prescribed point (m, m/s, m/s²).
 Path = Callable[[float], tuple[np.ndarray, np.ndarray, np.ndarray]]
@@ -57,7 +54,7 @@ class Point:
     label: str
 
 
-def _group(member: Flexible, group: str) -> Any:
+def node_group(member: Flexible, group: str) -> Any:
     """The member's node group (a refusal naming the groups it has)."""
     if not isinstance(member, Flexible):
         raise ValueError(f"{member.name!r} is a point mass: it has no node groups (its point "
@@ -68,7 +65,7 @@ def _group(member: Flexible, group: str) -> Any:
 
 def group_point(member: Flexible, group: str) -> Point:
     """The weighted mean position of a node group of a flexible member."""
-    return Point(member.name, _group(member, group).position, f"{member.name}.{group}")
+    return Point(member.name, node_group(member, group).position, f"{member.name}.{group}")
 
 
 def mass_point(member: PointMass) -> Point:
@@ -189,24 +186,6 @@ class DrivenRow(Row):
         return (u_rate * x).sum(axis=1), -(2.0 * u_rate * v + u_accel * x).sum(axis=1)
 
 
-@dataclass(frozen=True)
-class BilinearRow(Row):
-    """(Q_Aᵀ a_i) · (Q_Bᵀ b_i): terms (A, a), (B, b)."""
-
-    def directions(self, Q: Parts, t: float) -> tuple[np.ndarray, ...]:
-        first, second = self.terms
-        return second.values(Q[second.member]), first.values(Q[first.member])
-
-    def value(self, Q: Parts, t: float) -> np.ndarray:
-        first, second = self.terms
-        return (first.values(Q[first.member]) * second.values(Q[second.member])).sum(axis=1)
-
-    def rates(self, Q: Parts, V: Parts, t: float) -> tuple[np.ndarray, np.ndarray]:
-        first, second = self.terms
-        rate_a, rate_b = first.values(V[first.member]), second.values(V[second.member])
-        return np.zeros(len(self.axes)), -2.0 * (rate_a * rate_b).sum(axis=1)
-
-
 def _along(point: Point, sign: float, count: int) -> Term:
     return Term(point.member, sign * np.tile(point.vector, (count, 1)))
 
@@ -237,12 +216,12 @@ def _check_path(joint: str, path: Path) -> None:
 
 def on_line(joint: str, a: Point, direction: np.ndarray) -> LinearRow:
     """x_a stays on the line through its start along ``direction``: the two rows n_k · x_a."""
-    axis = _unit(joint, direction)
+    axis = unit_axis(joint, direction)
     normals = np.array(plane_basis(axis))
     return LinearRow(joint, (_along(a, 1.0, 2),), normals, "force", units=(normals,))
 
 
-def _unit(joint: str, axis: np.ndarray) -> np.ndarray:
+def unit_axis(joint: str, axis: np.ndarray) -> np.ndarray:
     return checks.direction(f"joint {joint!r}: its axis", axis)
 
 
@@ -250,7 +229,7 @@ def _lever(joint: str, member: Flexible, group: str, c: np.ndarray,
            turning: np.ndarray | None) -> np.ndarray:
     """A direction d (in the assembly) the group extends in, ⊥ c (``lever``; spans are of the
     undeformed body, turned by the member's placement)."""
-    span = _group(member, group).span
+    span = node_group(member, group).span
     R0 = member.placement
     d = lever(span, R0.T @ c,
               None if turning is None else R0.T @ turning)
@@ -261,19 +240,19 @@ def _lever(joint: str, member: Flexible, group: str, c: np.ndarray,
     return R0 @ d
 
 
-def _group_vector(member: Flexible, group: str, d: np.ndarray) -> np.ndarray:
+def group_vector(member: Flexible, group: str, d: np.ndarray) -> np.ndarray:
     """v with Qᵀ v = L_G d̄, d̄ = R₀ᵀ d the direction d of the assembly in the body's own
     coordinates (L_G maps those; it is R₀ at the start)."""
-    return _group(member, group).affine @ (member.placement.T @ d)
+    return node_group(member, group).affine @ (member.placement.T @ d)
 
 
 def keep_axis(joint: str, member: Flexible, group: str, axis: np.ndarray) -> LinearRow:
     """The group's direction ``axis`` stays along it: for c ⊥ axis, the rotation about c is the
     row u · L_G d with d = axis (turning about the axis leaves it alone: ``lever``) and u = c × d,
     so its multiplier is the moment about c. ValueError if the group cannot hold it."""
-    e = _unit(joint, axis)
+    e = unit_axis(joint, axis)
     levers = [(c, _lever(joint, member, group, c, e)) for c in plane_basis(e)]
-    vectors = np.array([_group_vector(member, group, d) for _, d in levers])
+    vectors = np.array([group_vector(member, group, d) for _, d in levers])
     return LinearRow(joint, (Term(member.name, vectors),),
                      np.array([c for c, _ in levers]), "moment",
                      units=(np.array([np.cross(c, d) for c, d in levers]),))
@@ -284,44 +263,13 @@ def drive(joint: str, member: Flexible, group: str, axis: np.ndarray, prescribed
     """The group's rotation about the fixed ``axis`` is the drive's angle θ(t): the row
     u(t) · L_G d, d ⊥ axis in the group, u₀ = axis × d turned by θ(t) (its multiplier the drive
     moment, N·m; ``joints``: sin(φ − θ) for a rotation φ)."""
-    e = _unit(joint, axis)
+    e = unit_axis(joint, axis)
     if not isinstance(prescribed, Drive):
         raise ValueError(f"joint {joint!r}: its drive must be a Drive, got {prescribed!r}")
     d = _lever(joint, member, group, e, None)
-    return DrivenRow(joint, (Term(member.name, _group_vector(member, group, d)[None, :]),),
+    return DrivenRow(joint, (Term(member.name, group_vector(member, group, d)[None, :]),),
                      e[None, :], "moment",
                      start=np.cross(e, d)[None, :], axis=e, drive=prescribed)
-
-
-def align_axes(joint: str, a: Flexible, group_a: str, b: Flexible, group_b: str,
-               axis: np.ndarray) -> BilinearRow:
-    """The direction ``axis`` of a's group stays parallel to that of b's group: for each c ⊥
-    the axis e, the row (L_A p) · (L_B s) with p × s = c measures the relative rotation about c
-    and, with p or s the axis itself, is blind to the relative turning about it: p = e,
-    s = c × e where a's group extends along e and b's along s, else s = e, p = e × c. Two rows;
-    ValueError naming the groups when neither pair lies in them."""
-    e = _unit(joint, axis)
-
-    def within(member: Flexible, group: str, d: np.ndarray) -> bool:
-        span = _group(member, group).span
-        return bool(np.linalg.norm(span.T @ (member.placement.T @ d)) >= 1.0 - MIN_LEVER)
-
-    pairs = []
-    for c in plane_basis(e):
-        for p, s in ((e, np.cross(c, e)), (np.cross(e, c), e)):
-            if within(a, group_a, p) and within(b, group_b, s):
-                pairs.append((p, s))
-                break
-        else:
-            raise ValueError(f"joint {joint!r}: groups {group_a!r} of {a.name!r} and "
-                             f"{group_b!r} of {b.name!r} cannot hold the rotation about "
-                             f"{np.round(c, 3).tolist()}: one must extend along "
-                             f"{np.round(e, 3).tolist()} and the other across it")
-    return BilinearRow(joint, (Term(a.name, np.array([_group_vector(a, group_a, p)
-                                                      for p, _ in pairs])),
-                               Term(b.name, np.array([_group_vector(b, group_b, s)
-                                                      for _, s in pairs]))),
-                       np.array(plane_basis(e)), "moment")
 
 
 def circle_path(center: np.ndarray, start: np.ndarray, axis: np.ndarray, rate: float) -> Path:
