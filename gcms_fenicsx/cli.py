@@ -24,7 +24,8 @@ def _common(parser: argparse.ArgumentParser, config_required: bool = True) -> No
         parser.add_argument("config", type=Path, help="study file (TOML)")
     else:
         parser.add_argument("config", type=Path, nargs="?", default=None,
-                            help="study file (TOML); the built-in default when omitted")
+                            help="study file (TOML); without one, the built-in default: the "
+                            "inline-4 crank train")
     parser.add_argument("--out", type=Path, required=True, help="output folder (it also "
                         "keeps each stage's product for the next command to reuse)")
     parser.add_argument("--fresh", action="store_true",
@@ -41,7 +42,8 @@ def build_parser() -> argparse.ArgumentParser:
                            "selection.json"))
     _common(sub.add_parser("simulate", help="the [scene] on the reduced model: results.h5, "
                            "summary.json, plots"))
-    _common(sub.add_parser("run", help="every stage, on CONFIG or the built-in default"),
+    _common(sub.add_parser("run", help="every stage, on CONFIG or the built-in default (the "
+                           "inline-4 crank train)"),
             config_required=False)
     return parser
 

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Install what is missing, then run the main job on the built-in default scene.
+# Install what is missing, then run the main job on the built-in default study (the inline-4
+# crank train: gcms run without a study file).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh

@@ -143,6 +143,22 @@ def test_built_in_default_is_the_shipped_workflow_file():
     assert cfg.geometry.kind == "crankshaft"
 
 
+def test_gcms_run_without_a_study_runs_the_built_in_crank_train(tmp_path, monkeypatch):
+    """The main job's default: ``gcms run --out DIR`` runs the shipped crank train (the same
+    file as workflows/crank_train.toml) as a system study."""
+    from gcms_fenicsx.app import commands
+
+    shipped = REPO / "gcms_fenicsx" / "data" / "crank_train.toml"
+    assert (REPO / "workflows" / "crank_train.toml").read_text() == shipped.read_text()
+    seen = []
+    monkeypatch.setattr(commands, "run_system", lambda cfg, out, fresh: seen.append(cfg) or "")
+    commands.run(None, tmp_path / "out")
+    (cfg,) = seen
+    assert cfg.source == "<built-in default>" and cfg.engine is not None
+    assert sorted(b.name for b in cfg.flexible) == ["conrod1", "conrod2", "conrod3", "conrod4",
+                                                    "crankshaft"]
+
+
 def test_missing_config_file_is_a_config_error(tmp_path):
     with pytest.raises(ConfigError, match="cannot be read"):
         load_config(tmp_path / "nope.toml")

@@ -26,7 +26,7 @@ from gcms_fenicsx.app import stage_cache, stage_files, system_plots, system_run
 from gcms_fenicsx.app.plots import plot_results
 from gcms_fenicsx.config.plan import ScenePlan, StudyPlan
 from gcms_fenicsx.config.study import load_config
-from gcms_fenicsx.config.system import SystemConfig
+from gcms_fenicsx.config.system import SystemConfig, built_in_system
 from gcms_fenicsx.config.table import ConfigError
 from gcms_fenicsx.dynamics.run.study_run import finished, run_scene
 from gcms_fenicsx.files.names import MESH_FILES, MODES_FILES, REDUCE_FILES, SIMULATION_FILES
@@ -149,7 +149,10 @@ def run(config: Path | None, out: Path, fresh: bool = False) -> str:
     """``gcms run``: every stage — geometry, mesh, modes, selection, reduced model and, when
     the study has a [scene], the simulation with its plots — each reused from --out when its
     inputs are unchanged (``--fresh``: none). A system study (``[system]``) runs every body's
-    stages and then the assembly (:func:`run_system`)."""
+    stages and then the assembly (:func:`run_system`); without a study, the built-in default,
+    the inline-4 crank train (``config.system.built_in_system``)."""
+    if config is None:
+        return run_system(built_in_system(), out, fresh)
     raw = system_run.system_file(config)
     if raw is not None:
         return run_system(system_run.load_system(config, raw), out, fresh)

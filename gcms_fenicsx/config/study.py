@@ -77,12 +77,14 @@ def parse_config(raw: Mapping[str, Any], source: str = "<dict>") -> StudyConfig:
 
 
 def default_config_text() -> str:
-    """The built-in default study (also shipped as ``workflows/default.toml``)."""
+    """The built-in one-body study: the driven inline-4 crankshaft (also shipped as
+    ``workflows/default.toml``; ``gcms run`` without a study runs the crank train,
+    ``config.system.built_in_system``)."""
     return resources.files("gcms_fenicsx.data").joinpath("default.toml").read_text()
 
 
 def load_config(path: str | Path | None = None) -> StudyConfig:
-    """Read and validate a study file; ``None`` gives the built-in default."""
+    """Read and validate a study file; ``None`` gives the built-in one-body study."""
     if path is None:
         return parse_config(tomllib.loads(default_config_text()), "<built-in default>")
     path = Path(path)

@@ -305,6 +305,15 @@ def _joint(t: Table, bodies: dict[str, BodySpec]) -> JointSpec:
     return JointSpec(name, kind, name_of, point, other, to_point, axis, drive)
 
 
+def built_in_system() -> SystemConfig:
+    """The built-in default of ``gcms run``: the inline-4 crank train (shipped as
+    ``gcms_fenicsx/data/crank_train.toml``, the same as ``workflows/crank_train.toml``)."""
+    from importlib import resources
+
+    text = resources.files("gcms_fenicsx.data").joinpath("crank_train.toml").read_text()
+    return parse_system(tomllib.loads(text), "<built-in default>")
+
+
 def parse_system(raw: Mapping[str, Any], source: str = "<dict>",
                  folder: Path = Path(".")) -> SystemConfig:
     """Validate a system study (a parsed TOML document with a ``[system]`` table); ``folder``
