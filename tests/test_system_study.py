@@ -122,6 +122,28 @@ def test_the_rigid_slider_crank_study_is_the_closed_form(tmp_path):
     assert not (out / "bodies").exists()
 
 
+def test_a_system_run_that_stops_early_keeps_its_rows_marked_incomplete(tmp_path):
+    """A step that fails (the rigid slider crank at h = 1 ms with two Newton iterations a step:
+    its second step does not converge) ends the run as a one-body simulation's: exit status 1,
+    one line saying so, system.h5 with the rows up to the last step that converged (the
+    start and t = 1 ms), summary.json ``complete`` false with Newton's message, the picture
+    drawn."""
+    study = tmp_path / "stops.toml"
+    study.write_text(RIGID.replace("time_step = 5e-5", "time_step = 1e-3\nmax_iterations = 2"))
+    out = tmp_path / "out"
+    run = subprocess.run([sys.executable, "-m", "gcms_fenicsx.cli", "run", str(study),
+                          "--out", str(out)], capture_output=True, text=True, timeout=300,
+                         cwd=REPO)
+    assert run.returncode == 1, run.stderr
+    assert "the simulation stopped early" in run.stderr and "INCOMPLETE" in run.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert not summary["complete"] and "Newton did not converge" in summary["message"]
+    assert summary["plots"] == ["system_joints.png"]
+    with h5py.File(out / "system.h5") as f:
+        np.testing.assert_allclose(f["time_s"][()], [0.0, 1e-3], atol=1e-15)
+        assert f["bodies/slider/q"].shape == (2, 3)
+
+
 FRAME = """
 [bodies.frame]
 rigid = {mass = 5.0, center = [0.2, 0, 0], inertia = [0.1, 0.1, 0.1], points = {mount = [0, 0, 0], rail = [0.3, 0, 0]}}

@@ -28,7 +28,7 @@ from gcms_fenicsx.config.plan import ScenePlan, StudyPlan
 from gcms_fenicsx.config.study import load_config
 from gcms_fenicsx.config.system import SystemConfig, built_in_system
 from gcms_fenicsx.config.table import ConfigError
-from gcms_fenicsx.dynamics.run.study_run import finished, run_scene
+from gcms_fenicsx.dynamics.run.study_run import SimulationIncomplete, finished, run_scene
 from gcms_fenicsx.files.names import MESH_FILES, MODES_FILES, REDUCE_FILES, SIMULATION_FILES
 from gcms_fenicsx.files.outputs import check_out, on_rank0, staged_output, write_json
 from gcms_fenicsx.files.reduced_model import ReducedModel
@@ -189,7 +189,8 @@ def system_models(cfg: SystemConfig, out: Path, fresh: bool, comm: Any, progress
 def run_system(cfg: SystemConfig, out: Path, fresh: bool = False) -> str:
     """A system study: each flexible body's stages (:func:`system_models`), then the assembly
     stepped on rank 0, its files (``system_run.SYSTEM_FILES``) published into ``out``
-    together."""
+    together — also when a step failed: its rows up to there, marked incomplete, and
+    SimulationIncomplete (exit status 1), as a one-body simulation's."""
     comm = _world()
     progress = progress_printer(comm.rank)
     on_rank0(comm, check_out, out)
@@ -202,4 +203,7 @@ def run_system(cfg: SystemConfig, out: Path, fresh: bool = False) -> str:
     if comm.rank == 0:
         summary = dict(summary, plots=system_plots.draw(out, progress))
         write_json(out / "summary.json", summary)
-    return "\n".join([*texts, system_run.system_text(summary) if comm.rank == 0 else ""])
+    text = "\n".join([*texts, system_run.system_text(summary) if comm.rank == 0 else ""])
+    if not comm.bcast(summary["complete"] if comm.rank == 0 else None, root=0):
+        raise SimulationIncomplete(text)         # its rows up to the failed step are written
+    return text

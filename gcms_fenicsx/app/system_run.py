@@ -165,16 +165,21 @@ def full_order_body(spec: FlexibleSpec, folder: Path, progress: Progress) -> Any
 
 def simulate_system(cfg: SystemConfig, models: dict[str, ReducedModel], folder: Path,
                     progress: Progress) -> dict:
-    """Assemble, step and write ``folder``/system.h5 and the summary (rank 0)."""
-    from gcms_fenicsx.dynamics.system.march import march
+    """Assemble, step and write ``folder``/system.h5 and the summary (rank 0): a run that
+    stops early (a step fails) is written up to there, its summary ``complete`` false."""
+    from gcms_fenicsx.dynamics.system.march import StoppedEarly, march
     from gcms_fenicsx.dynamics.system.stepper import initial_state
 
     made, assembly, stepper = build_system(cfg, models)
     progress(f"system: {len(made)} bodies, {assembly.dofs} coordinates, {assembly.count} joint "
              f"rows ({len(assembly.dropped)} implied by others, dropped); stepping to "
              f"{cfg.end_time_s:g} s at {cfg.time_step_s:g} s")
-    run = march(stepper, initial_state(stepper, start_velocity(cfg, made)), cfg.end_time_s,
-                every=cfg.record_every, probes=body_probes(assembly), progress=progress)
+    try:
+        run = march(stepper, initial_state(stepper, start_velocity(cfg, made)),
+                    cfg.end_time_s, every=cfg.record_every, probes=body_probes(assembly),
+                    progress=progress)
+    except StoppedEarly as exc:                 # its rows so far, marked incomplete
+        run = exc.run
     forces = joint_forces(assembly, run.multipliers, {j.name for j in cfg.joints})
     engine = engine_series(cfg, stepper.loads, assembly.offsets, run.time_s)
     write_system(folder / "system.h5", assembly, run, forces, engine)
@@ -282,7 +287,8 @@ def system_summary(cfg: SystemConfig, assembly: Any, run: Any, forces: dict) -> 
                                         else np.linalg.norm(v, axis=1).max())
                    for key, v in entry.items()} for name, entry in forces.items()}
     return {
-        "kind": "system", "complete": True, "source": cfg.source,
+        "kind": "system", "complete": run.complete, "message": run.message,
+        "source": cfg.source,
         "end_time_s": float(run.time_s[-1]), "time_step_s": cfg.time_step_s,
         "steps": run.steps, "wall_time_s": run.wall_time_s, "steps_per_second": steps_per_s,
         "newton_iterations_mean": run.newton_iterations / max(run.steps, 1),
@@ -299,8 +305,9 @@ def system_summary(cfg: SystemConfig, assembly: Any, run: Any, forces: dict) -> 
 
 def system_text(summary: dict) -> str:
     """The run's lines for a person."""
+    ended = "" if summary["complete"] else f" (INCOMPLETE: {summary['message']})"
     lines = [f"system: {len(summary['bodies'])} bodies, {summary['coordinates']} coordinates; "
-             f"{summary['steps']} steps to {summary['end_time_s']:.4g} s in "
+             f"{summary['steps']} steps to {summary['end_time_s']:.4g} s{ended} in "
              f"{summary['wall_time_s']:.1f} s ({summary['steps_per_second']:,.0f} steps/s), "
              f"{summary['newton_iterations_mean']:.2f} Newton iterations a step, energy drift "
              f"{summary['energy_drift_rel']:.2e}"]

@@ -17,6 +17,7 @@ from typing import Callable
 
 import numpy as np
 
+from gcms_fenicsx.dynamics.stepping.errors import IntegrationError
 from gcms_fenicsx.dynamics.stepping.state import State
 from gcms_fenicsx.dynamics.system import checks
 from gcms_fenicsx.dynamics.system.stepper import AssemblyStepper
@@ -39,6 +40,8 @@ class AssemblyRun:
     newton_iterations: int           # over every step
     wall_time_s: float               # the stepping alone
     velocity_change: float           # initial_state's relative change of q̇
+    complete: bool = True            # False: a step failed; the rows end before it
+    message: str = ""                # why it stopped
 
     @property
     def energy_drift_rel(self) -> float:
@@ -47,6 +50,18 @@ class AssemblyRun:
         scale = max(float(np.max(e["kinetic"] + e["elastic"])),
                     float(np.max(np.abs(e["load_work"]))), float(np.max(np.abs(e["row_work"]))))
         return float(np.max(np.abs(e["balance"]))) / scale if scale > 0 else 0.0
+
+
+class StoppedEarly(IntegrationError):
+    """A step failed: the IntegrationError's message and time, and ``run``, the rows up to
+    the last step that converged (``complete`` False)."""
+
+    def __init__(self, run: AssemblyRun, cause: IntegrationError) -> None:
+        super().__init__(str(cause), cause.time_s)
+        self.run = run
+
+    def __reduce__(self):
+        return (type(self), (self.run, IntegrationError(str(self), self.time_s)))
 
 
 class _Energy:
@@ -85,7 +100,9 @@ def march(stepper: AssemblyStepper, start: tuple[State, float], end_time_s: floa
           progress: Progress = quiet) -> AssemblyRun:
     """Step from ``start`` (``stepper.initial_state``'s state and velocity change) to the first
     step at or beyond ``end_time_s``, recording every ``every``-th step (and the last) with
-    ``probes``."""
+    ``probes``. A step that fails (IntegrationError: Newton diverged or did not converge)
+    ends the run there: :class:`StoppedEarly`, an IntegrationError, carries the rows up to
+    the last step that converged (``complete`` False, ``message`` saying why)."""
     state, change = start
     probes = probes or {}
     # the run ends at the first step at or beyond the end time, as a scene's (Scene.steps)
@@ -98,24 +115,35 @@ def march(stepper: AssemblyStepper, start: tuple[State, float], end_time_s: floa
     total_iterations = 0
     begun = time.perf_counter()
     report_at = begun + 5.0
+    stopped: IntegrationError | None = None
+    done = 0
     for n in range(1, steps + 1):
-        state, states, iterations = stepper.step(state)
-        total_iterations += iterations
+        try:
+            state, states, iterations = stepper.step(state)
+        except IntegrationError as exc:     # the rows so far are the run's, marked incomplete
+            stopped = exc
+            break
+        done, total_iterations = n, total_iterations + iterations
         terms = energy.terms(state, states)
         if n % every == 0 or n == steps:
-            rows.append((state.t, state.lam.copy(), iterations, terms,
-                         {k: np.array(p(state), float) for k, p in probes.items()}))
+            rows.append(_row(state, iterations, terms, probes))
         if time.perf_counter() > report_at:
             progress(f"assembly: t = {state.t:.4g} of {end_time_s:g} s ({n} steps)")
             report_at += 5.0
+    if stopped is not None and done % every:
+        rows.append(_row(state, iterations, terms, probes))     # the last step that converged
     wall = time.perf_counter() - begun
-    return AssemblyRun(
+    run = AssemblyRun(
         time_s=np.array([r[0] for r in rows]), multipliers=np.array([r[1] for r in rows]),
         iterations=np.array([r[2] for r in rows]),
         energy={k: np.array([r[3][k] for r in rows]) for k in rows[0][3]},
         probes={k: np.array([r[4][k] for r in rows]) for k in probes},
-        steps=steps, newton_iterations=total_iterations, wall_time_s=wall,
-        velocity_change=change)
+        steps=done, newton_iterations=total_iterations, wall_time_s=wall,
+        velocity_change=change, complete=stopped is None,
+        message="" if stopped is None else str(stopped))
+    if stopped is not None:
+        raise StoppedEarly(run, stopped) from stopped
+    return run
 
 
 def _row(s: State, iterations: int, terms: dict[str, float], probes: dict[str, Probe]) -> tuple:
