@@ -78,8 +78,8 @@ def _run(args: argparse.Namespace) -> int:
     except PicturesInterrupted as exc:
         if comm.rank == 0:
             print(f"gcms {args.command}: interrupted ({signal.Signals(exc.signum).name}) while "
-                  f"drawing the pictures; the results are in {args.out}/ (results.h5, "
-                  "summary.json), a picture not finished is not", file=sys.stderr)
+                  f"drawing the pictures; the results are in {args.out}/ ({exc.files}), a "
+                  "picture not finished is not", file=sys.stderr)
         return exc.exit_status
     except (Interrupted, KeyboardInterrupt) as exc:
         signum = exc.signum if isinstance(exc, Interrupted) else signal.SIGINT

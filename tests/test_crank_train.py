@@ -71,7 +71,8 @@ def test_a_coarse_crank_train_balances_its_energy_and_its_rigid_twin_the_gas_wor
     for k in range(1, 5):
         raw["bodies"][f"conrod{k}"]["mesh"] = {"size": 0.005}
     cfg = parse_system(raw, str(STUDY), STUDY.parent)
-    models, stages, _ = system_models(cfg, tmp_path, False, MPI.COMM_WORLD, lambda line: None)
+    with system_models(cfg, tmp_path, False, MPI.COMM_WORLD, lambda line: None) as built:
+        models, stages, _ = built
     assert [stages[f"conrod{k}"] for k in (2, 3, 4)] == [{"model_of": "conrod1"}] * 3
     cycle = indicated_work_j(pressure_curve(cfg.engine), cfg.engine.bore_m, 0.043, 0.145)
     for label, study in (("elastic", cfg), ("rigid", as_rigid(cfg))):

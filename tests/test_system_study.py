@@ -144,6 +144,79 @@ def test_a_system_run_that_stops_early_keeps_its_rows_marked_incomplete(tmp_path
         assert f["bodies/slider/q"].shape == (2, 3)
 
 
+def test_an_interrupt_while_drawing_keeps_the_published_system_results(tmp_path, monkeypatch,
+                                                                       capsys):
+    """SIGINT while system_joints.png is drawn (system.h5 and summary.json published): exit
+    130 and one line saying the results are in --out, the unfinished picture not there."""
+    import signal
+
+    from gcms_fenicsx import cli
+    from gcms_fenicsx.app import system_plots
+    from gcms_fenicsx.runtime.interrupts import Interrupted
+
+    def interrupted(*args):
+        raise Interrupted(signal.SIGINT)
+
+    monkeypatch.setattr(system_plots, "plot_joints", interrupted)
+    study, out = tmp_path / "rigid.toml", tmp_path / "out"
+    study.write_text(RIGID)
+    status = cli.main(["run", str(study), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert status == 130, err
+    assert ("while drawing the pictures; the results are in" in err.splitlines()[-1]
+            and "system.h5, summary.json" in err.splitlines()[-1]), err
+    assert sorted(p.name for p in out.iterdir()) == ["summary.json", "system.h5"]
+
+
+def test_joints_refused_after_the_bodies_stages_leave_out_as_it_was(tmp_path):
+    """A flexible body's joint refused when the assembly is built (the conrod's slider-pin
+    group placed 0.3 m from the slider): one line, exit 2, and --out not created — the
+    conrod's stages, computed by then, are not published either."""
+    raw = tomllib.loads((REPO / "workflows" / "slider_crank.toml").read_text())
+    raw["bodies"]["conrod"]["mesh"]["size"] = 0.004
+    del raw["bodies"]["slider"]["align"]
+    raw["bodies"]["slider"]["position"] = [0.75, 0.0, 0.0]
+    study, out = tmp_path / "apart.toml", tmp_path / "out"
+    text = (REPO / "workflows" / "slider_crank.toml").read_text()
+    study.write_text(text.replace('[bodies.conrod.mesh]\nsize = 0.003',
+                                  '[bodies.conrod.mesh]\nsize = 0.004').replace(
+        'align = { to_body = "conrod", to_point = "end_xL" }   # at the conrod\'s slider pin',
+        'position = [0.75, 0.0, 0.0]'))
+    assert tomllib.loads(study.read_text()) == raw
+    run = subprocess.run([sys.executable, "-m", "gcms_fenicsx.cli", "run", str(study),
+                          "--out", str(out)], capture_output=True, text=True, timeout=600,
+                         cwd=REPO)
+    assert run.returncode == 2, run.stderr
+    assert run.stderr.strip().splitlines()[-1].startswith("gcms run: error:"), run.stderr
+    assert "slider_pin" in run.stderr and "apart" in run.stderr, run.stderr
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("change, joint", [
+    ({"joints": [{"name": "guide2", "type": "prismatic", "body": "slider",
+                  "axis": [0.0, 1.0, 0.0]}]}, "guide2"),
+    ({"slider_mass": 1e-15}, "guide")])
+def test_a_row_dropped_at_a_dead_centre_that_stops_holding_ends_the_run(tmp_path, change,
+                                                                        joint):
+    """The rigid slider crank starts at its dead centre. A second guide across the first
+    (the slider locked: no mechanism can turn) has its row dropped there as implied by the
+    crank's, and a slider of 1e-15 kg has its guide's row dropped as implied by nothing that
+    weighs: neither holds once the crank turns, and the run stops saying so (before: exit
+    0, the slider through the second guide or off its own by 0.3–0.45 m), its rows up to
+    there kept."""
+    from gcms_fenicsx.app.commands import run_system
+    from gcms_fenicsx.dynamics.run.study_run import SimulationIncomplete
+
+    raw = tomllib.loads(RIGID)
+    raw["joints"] += change.get("joints", [])
+    raw["bodies"]["slider"]["point_mass"] = change.get("slider_mass", M3)
+    with pytest.raises(SimulationIncomplete, match=f"joint {joint!r}: its row along .* "
+                       "dropped at the start .* no longer holds at t = "):
+        run_system(parse_system(raw, "dead centre", tmp_path), tmp_path / "out")
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert not summary["complete"] and summary["end_time_s"] < 5e-3
+
+
 FRAME = """
 [bodies.frame]
 rigid = {mass = 5.0, center = [0.2, 0, 0], inertia = [0.1, 0.1, 0.1], points = {mount = [0, 0, 0], rail = [0.3, 0, 0]}}
@@ -197,9 +270,46 @@ def _rigid(**changes) -> dict:
     return raw
 
 
+#: An [engine] on the rigid slider crank: its slider the piston, its main joint the drive.
+ENGINE_OF_RIGID = {"pistons": ["slider"], "bore": 0.05, "towards_crank": [-1.0, 0.0, 0.0],
+                   "crank_drive": "main"}
+
+
+def test_numbers_decades_apart_end_in_one_line_and_leave_out_as_it_was(tmp_path):
+    """A point mass of 1e300 kg beside bodies of grams makes the assembly's matrices singular
+    in floating point: a ComputationFailed naming what to look for (exit status 1, one line),
+    not a LinAlgError's traceback, and --out not created."""
+    from gcms_fenicsx.app.commands import run_system
+    from gcms_fenicsx.runtime.errors import ComputationFailed
+
+    raw = _rigid(**{"bodies.slider.point_mass": 1e300})
+    with pytest.raises(ComputationFailed, match="the assembly could not be solved .* a mass"):
+        run_system(parse_system(raw, "heavy", tmp_path), tmp_path / "out")
+    assert not (tmp_path / "out").exists()
+
+
+def test_huge_and_tiny_directions_are_directions():
+    """An axis or towards_crank is normalised without over- or underflow."""
+    raw = _rigid(**{"joints.0.axis": [0.0, 0.0, 1e-300],
+                    "engine": dict(ENGINE_OF_RIGID, towards_crank=[-1e300, 1e300, 0.0])})
+    cfg = parse_system(raw, "test")
+    assert cfg.joints[0].axis == (0.0, 0.0, 1.0)
+    np.testing.assert_allclose(cfg.engine.towards_crank, [-0.5 ** 0.5, 0.5 ** 0.5, 0.0],
+                               rtol=1e-15)
+
+
 @pytest.mark.parametrize("changes, where, says", [
     ({"scene": {}}, "[scene]", "unknown table in a system study"),
-    ({"system.time_step": 1.0}, "[system] time_step", "must be <= end_time"),
+    ({"system.time_step": 1.0}, "[system] time_step", "must be in [end_time / 1e+08, end_time]"),
+    ({"system.time_step": 1e-300}, "[system] time_step", "must be in [end_time / 1e+08"),
+    ({"joints.0.body": ["crank"]}, "[joints[0]] body", "must be one of the bodies"),
+    ({"bodies.slider.position": None,
+      "bodies.slider.align": {"point": "q", "to_body": "conrod", "to_point": "b"}},
+     "[bodies.slider.align] point", "'slider' is a point mass: it is its own point"),
+    ({"joints.1.to_body": ["conrod"]}, "[joints[1]] to_body", "or another body"),
+    ({"engine": dict(ENGINE_OF_RIGID, crank_drive=["main"])}, "[engine] crank_drive",
+     "must be a joint with a drive"),
+    ({"engine": dict(ENGINE_OF_RIGID, bore=1e200)}, "[engine] bore", "must be > 0 and <= 10"),
     ({"bodies.slider.rigid": {"mass": 1.0}}, "[bodies.slider] point_mass", "a body is one of"),
     ({"bodies.crank.rigid": None}, "[bodies.crank]", "a body needs study = PATH"),
     ({"bodies.conrod.rigid.points": {}}, "[bodies.conrod.rigid] points", "name at least one"),
@@ -300,7 +410,8 @@ def test_a_system_study_runs_with_a_flexible_body_full_order(tmp_path):
     raw = tomllib.loads((REPO / "workflows" / "slider_crank.toml").read_text())
     raw["bodies"]["conrod"]["mesh"]["size"] = 0.004
     cfg = parse_system(raw, "slider_crank.toml", REPO / "workflows")
-    models, _, _ = system_models(cfg, tmp_path, False, MPI.COMM_WORLD, lambda line: None)
+    with system_models(cfg, tmp_path, False, MPI.COMM_WORLD, lambda line: None) as built:
+        models = built[0]
     full = full_order_body(cfg.body("conrod"), tmp_path / "full", lambda line: None)
     runs = {}
     for label, replaced in (("gcms", None), ("full", {"conrod": full})):

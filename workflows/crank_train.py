@@ -324,7 +324,8 @@ def main() -> None:
 
     cfg = load(args.study)
     with temporary_folder("crank_train_") as work:
-        models, _, _ = system_models(cfg, work, False, MPI.COMM_WORLD, log)
+        with system_models(cfg, work, False, MPI.COMM_WORLD, log) as (models, _, _):
+            pass                                # the bodies' stages, published in work
         log("the train as written")
         flexible = simulate(cfg, models, work / "flexible")
         log("its rigid twin")

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -41,8 +41,12 @@ SCENE_OWNS = (*REDUCE_FILES, *SIMULATION_FILES)
 
 
 class PicturesInterrupted(Interrupted):
-    """SIGINT or SIGTERM while the pictures were drawn: the run's results were published
-    before, so ``--out`` holds them; a picture not finished is not there."""
+    """SIGINT or SIGTERM while the pictures were drawn: the run's results (``files``) were
+    published before, so ``--out`` holds them; a picture not finished is not there."""
+
+    def __init__(self, signum: int, files: str = "results.h5, summary.json") -> None:
+        super().__init__(signum)
+        self.files = files
 
 
 def _world() -> Any:
@@ -162,47 +166,54 @@ def run(config: Path | None, out: Path, fresh: bool = False) -> str:
     return finished(texts, summary)
 
 
+@contextmanager
 def system_models(cfg: SystemConfig, out: Path, fresh: bool, comm: Any, progress: Progress
-                  ) -> tuple[dict[str, ReducedModel], dict[str, dict], list[str]]:
-    """Each flexible body's stages in ``out``/bodies/NAME (its own cache): (the reduced model
-    of each flexible body, its stages for summary.json, the stages' lines). Bodies of the
-    same study and joints share the first one's model (``model_of``)."""
+                  ) -> Iterator[tuple[dict[str, ReducedModel], dict[str, dict], list[str]]]:
+    """Each flexible body's stages, staged for ``out``/bodies/NAME (its own cache): (the
+    reduced model of each flexible body, its stages for summary.json, the stages' lines),
+    published when the ``with`` block ends without an error — so a study refused by its
+    joints, or a run that fails, leaves ``--out`` as it was. Bodies of the same study and
+    joints share the first one's model (``model_of``)."""
     models, stages, texts, first = {}, {}, [], {}
-    for body in cfg.flexible:
-        if body.model_key in first:          # the same study and joints: one reduced model
-            models[body.name] = models[first[body.model_key]]
-            stages[body.name] = {"model_of": first[body.model_key]}
-            progress(f"body {body.name}: the model of {first[body.model_key]} (the same study "
-                     "and joints)")
-            continue
-        first[body.model_key] = body.name
-        progress(f"body {body.name}: {body.source}")
-        folder = out / system_run.BODIES_FOLDER / body.name
-        with built_stages(body.study.plan, folder, fresh, "reduced", REDUCE_FILES, comm,
-                          progress) as (_, built):
-            pass
-        models[body.name], stages[body.name] = built.model, built.stages
-        texts += [f"{body.name}: {line}" for line in built.texts]
-    return models, stages, texts
+    with ExitStack() as staged:
+        for body in cfg.flexible:
+            if body.model_key in first:          # the same study and joints: one reduced model
+                models[body.name] = models[first[body.model_key]]
+                stages[body.name] = {"model_of": first[body.model_key]}
+                progress(f"body {body.name}: the model of {first[body.model_key]} (the same "
+                         "study and joints)")
+                continue
+            first[body.model_key] = body.name
+            progress(f"body {body.name}: {body.source}")
+            folder = out / system_run.BODIES_FOLDER / body.name
+            _, built = staged.enter_context(built_stages(body.study.plan, folder, fresh,
+                                                         "reduced", REDUCE_FILES, comm,
+                                                         progress))
+            models[body.name], stages[body.name] = built.model, built.stages
+            texts += [f"{body.name}: {line}" for line in built.texts]
+        yield models, stages, texts
 
 
 def run_system(cfg: SystemConfig, out: Path, fresh: bool = False) -> str:
     """A system study: each flexible body's stages (:func:`system_models`), then the assembly
-    stepped on rank 0, its files (``system_run.SYSTEM_FILES``) published into ``out``
-    together — also when a step failed: its rows up to there, marked incomplete, and
-    SimulationIncomplete (exit status 1), as a one-body simulation's."""
+    stepped on rank 0, its files (``system_run.SYSTEM_FILES``) and the bodies' stages
+    published into ``out`` together — also when a step failed: its rows up to there, marked
+    incomplete, and SimulationIncomplete (exit status 1), as a one-body simulation's."""
     comm = _world()
     progress = progress_printer(comm.rank)
     on_rank0(comm, check_out, out)
-    models, stages, texts = system_models(cfg, out, fresh, comm, progress)
-    with staged_output(out, comm, system_run.SYSTEM_FILES) as folder:
+    with system_models(cfg, out, fresh, comm, progress) as (models, stages, texts), \
+            staged_output(out, comm, system_run.SYSTEM_FILES) as folder:
         summary = on_rank0(comm, system_run.simulate_system, cfg, models, folder, progress)
         if comm.rank == 0:
             summary["stages"] = stages
             write_json(folder / "summary.json", summary)
     if comm.rank == 0:
-        summary = dict(summary, plots=system_plots.draw(out, progress))
-        write_json(out / "summary.json", summary)
+        try:
+            summary = dict(summary, plots=system_plots.draw(out, progress))
+            write_json(out / "summary.json", summary)
+        except Interrupted as exc:
+            raise PicturesInterrupted(exc.signum, "system.h5, summary.json") from exc
     text = "\n".join([*texts, system_run.system_text(summary) if comm.rank == 0 else ""])
     if not comm.bcast(summary["complete"] if comm.rank == 0 else None, root=0):
         raise SimulationIncomplete(text)         # its rows up to the failed step are written

@@ -26,6 +26,7 @@ from gcms_fenicsx.config.system import (GROUND, FlexibleSpec, JointSpec, PointMa
 from gcms_fenicsx.config.table import ConfigError
 from gcms_fenicsx.files.outputs import atomic_file
 from gcms_fenicsx.files.reduced_model import ReducedModel
+from gcms_fenicsx.runtime.errors import ComputationFailed
 from gcms_fenicsx.runtime.progress import Progress
 
 SYSTEM_FILES = ("system.h5", "summary.json", "system_joints.png")
@@ -83,13 +84,17 @@ def members(cfg: SystemConfig, models: dict[str, ReducedModel],
 
     made: dict[str, Any] = {}
     for spec in cfg.bodies:
+        align, key, value = spec.placement.align, f"[bodies.{spec.name}]", spec.kind
         try:
             x0 = np.array(spec.placement.position)
-            if spec.placement.align is not None:
-                x0 = aligned_position(spec.placement.align, member(spec, np.zeros(3)), made)
+            if align is not None:
+                key, value = f"[bodies.{spec.name}.align]", dict(zip(
+                    ("point", "to_body", "to_point"), align))
+                x0 = aligned_position(align, member(spec, np.zeros(3)), made)
+                key, value = f"[bodies.{spec.name}]", spec.kind
             made[spec.name] = member(spec, x0)
         except ValueError as exc:
-            raise ConfigError(f"[bodies.{spec.name}]", spec.kind, str(exc)) from exc
+            raise ConfigError(key, value, str(exc)) from exc
     return tuple(made.values())
 
 
@@ -170,16 +175,20 @@ def simulate_system(cfg: SystemConfig, models: dict[str, ReducedModel], folder: 
     from gcms_fenicsx.dynamics.system.march import StoppedEarly, march
     from gcms_fenicsx.dynamics.system.stepper import initial_state
 
-    made, assembly, stepper = build_system(cfg, models)
-    progress(f"system: {len(made)} bodies, {assembly.dofs} coordinates, {assembly.count} joint "
-             f"rows ({len(assembly.dropped)} implied by others, dropped); stepping to "
-             f"{cfg.end_time_s:g} s at {cfg.time_step_s:g} s")
     try:
+        made, assembly, stepper = build_system(cfg, models)
+        progress(f"system: {len(made)} bodies, {assembly.dofs} coordinates, {assembly.count} "
+                 f"joint rows ({len(assembly.dropped)} implied by others, dropped); stepping "
+                 f"to {cfg.end_time_s:g} s at {cfg.time_step_s:g} s")
         run = march(stepper, initial_state(stepper, start_velocity(cfg, made)),
                     cfg.end_time_s, every=cfg.record_every, probes=body_probes(assembly),
                     progress=progress)
     except StoppedEarly as exc:                 # its rows so far, marked incomplete
         run = exc.run
+    except (np.linalg.LinAlgError, ArithmeticError) as exc:     # one line, not a traceback
+        raise ComputationFailed(
+            f"the assembly could not be solved ({type(exc).__name__}: {exc}): look for a mass, "
+            "a length or a time step many decades away from the others") from exc
     forces = joint_forces(assembly, run.multipliers, {j.name for j in cfg.joints})
     engine = engine_series(cfg, stepper.loads, assembly.offsets, run.time_s)
     write_system(folder / "system.h5", assembly, run, forces, engine)
@@ -317,6 +326,7 @@ def system_text(summary: dict) -> str:
                  if "peak_moment_nm" in joint else "",
                  f"peak drive torque {joint['peak_drive_torque_nm']:.4g} N·m"
                  if "peak_drive_torque_nm" in joint else ""]
-        lines.append(f"  joint {name} ({joint['type']}): " + ", ".join(p for p in peaks if p))
+        lines.append(f"  joint {name} ({joint['type']}): " + (", ".join(p for p in peaks if p)
+                     or "every row implied by the other joints (dropped)"))
     return "\n".join(lines)
 

@@ -17,6 +17,9 @@ import numpy as np
 
 from gcms_fenicsx.config.table import Table
 
+#: m: a bore beyond this is a length in the wrong unit (an 82 mm bore is 0.082).
+MAX_BORE_M = 10.0
+
 BUILT_IN_CURVES = ("petrol_full_load",)
 
 
@@ -75,15 +78,14 @@ def parse_engine(raw: Mapping[str, Any] | None, bodies: Mapping[str, Any],
     if (not isinstance(order, list) or not all(isinstance(k, int) for k in order)
             or sorted(order) != list(range(1, len(pistons) + 1))):
         raise t.error("firing_order", order, f"must name every cylinder 1 … {len(pistons)} once")
-    towards = np.array(t.vector("towards_crank"))
-    if not np.linalg.norm(towards) > 0:
-        raise t.error("towards_crank", towards.tolist(), "must be a non-zero vector")
+    towards = t.direction("towards_crank")
     drive = t.get("crank_drive")
-    if drive not in drives:
+    if not isinstance(drive, str) or drive not in drives:
         raise t.error("crank_drive", drive, "must be a joint with a drive (the crankshaft's): "
                       + (", ".join(drives) or "the system has none"))
-    spec = EngineSpec(pistons=tuple(pistons), bore_m=t.positive("bore"),
-                      towards_crank=tuple(float(x) for x in towards / np.linalg.norm(towards)),
+    spec = EngineSpec(pistons=tuple(pistons),
+                      bore_m=t.number("bore", low=0.0, high=MAX_BORE_M, low_open=True),
+                      towards_crank=towards,
                       firing_order=tuple(order),
                       first_firing_deg=t.number("first_firing_deg", 0.0),
                       crank_drive=drive, pressure=_pressure(t),

@@ -217,14 +217,6 @@ class Scene:
                                  f"this body; the groups are: {listed}")
 
 
-def _axis(t: Table, key: str) -> tuple[float, float, float]:
-    axis = t.vector(key)
-    norm = math.sqrt(sum(a * a for a in axis))
-    if norm == 0.0:
-        raise t.error(key, list(axis), "must be a non-zero vector")
-    return tuple(a / norm for a in axis)
-
-
 def parse_drive(t: Table) -> Drive:
     """The ``drive`` table of the joint table ``t`` (``Drive``)."""
     d = Table(f"{t.name}.drive", t.subtable("drive"))
@@ -241,7 +233,7 @@ def _joint(t: Table) -> Joint:
     name = _name(t, f"{kind}_{group}")
     axis, drive = None, None
     if kind == "revolute" or t.has("axis"):
-        axis = _axis(t, "axis")
+        axis = t.direction("axis")
     if t.has("drive"):
         if kind == "spherical":
             raise t.error("drive", t.get("drive"), "a drive needs a revolute or fixed joint")
@@ -322,7 +314,7 @@ def parse_scene(raw: Mapping[str, Any] | None) -> Scene | None:
                       angular_velocity=i.vector("angular_velocity", (0.0, 0.0, 0.0)),
                       mode=mode,
                       amplitude_m=i.positive("amplitude") if mode is not None else 0.0,
-                      direction=_axis(i, "direction") if i.has("direction") else None,
+                      direction=i.direction("direction") if i.has("direction") else None,
                       equilibrium=equilibrium)
     i.finish()
 

@@ -31,6 +31,8 @@ from gcms_fenicsx.numerics.rotation import rotation_about
 
 SYSTEM_TABLES = ("system", "bodies", "joints", "engine")
 JOINT_TYPES = ("spherical", "revolute", "cylindrical", "prismatic", "fixed")
+#: A run of more steps than this is a time step given in the wrong unit (days at ~300 steps/s).
+MAX_STEPS = 1e8
 #: Joints that hold one body to another (the rest hold a body to the ground only).
 GROUND = "ground"
 #: Tables of a flexible body's study that may be given inline in [bodies.NAME].
@@ -265,23 +267,15 @@ def _point(t: Table, key: str, body: BodySpec) -> str | None:
     return value
 
 
-def _axis(t: Table) -> tuple[float, ...]:
-    axis = np.array(t.vector("axis"))
-    norm = float(np.linalg.norm(axis))
-    if not norm > 0:
-        raise t.error("axis", axis.tolist(), "must be a non-zero vector")
-    return tuple(float(a) for a in axis / norm)
-
-
 def _joint(t: Table, bodies: dict[str, BodySpec]) -> JointSpec:
     kind = t.choice("type", JOINT_TYPES)
     name_of = t.get("body")
-    if name_of not in bodies:
+    if not isinstance(name_of, str) or name_of not in bodies:
         raise t.error("body", name_of, "must be one of the bodies: " + ", ".join(bodies))
     body = bodies[name_of]
     point = _point(t, "point", body)
     other = t.get("to_body", GROUND)
-    if other != GROUND and other not in bodies or other == name_of:
+    if not isinstance(other, str) or other != GROUND and other not in bodies or other == name_of:
         raise t.error("to_body", other, f"must be {GROUND!r} (the default) or another body: "
                       + ", ".join(b for b in bodies if b != name_of))
     to_point = _point(t, "to_point", bodies[other]) if other != GROUND else None
@@ -291,7 +285,7 @@ def _joint(t: Table, bodies: dict[str, BodySpec]) -> JointSpec:
         raise t.error("type", kind, "a point mass has no rotation to hold: join it by a "
                       "spherical joint, or put it on a line (cylindrical or prismatic) to the "
                       "ground or as the to_body of another body's")
-    axis = (_axis(t) if kind not in ("spherical", "fixed") or kind == "fixed" and t.has("axis")
+    axis = (t.direction("axis") if kind not in ("spherical", "fixed") or kind == "fixed" and t.has("axis")
             else None)
     drive = None
     if t.has("drive"):
@@ -299,8 +293,9 @@ def _joint(t: Table, bodies: dict[str, BodySpec]) -> JointSpec:
             raise t.error("drive", t.get("drive"), "a drive turns a revolute joint to the ground")
         drive = parse_drive(t)
     name = t.get("name", f"{kind}_{name_of}" + (f"_{point}" if point else ""))
-    if not isinstance(name, str) or not name or "/" in name:
-        raise t.error("name", name, "must be a non-empty string without '/'")
+    if not isinstance(name, str) or not name or "/" in name or name.endswith(".rigid"):
+        raise t.error("name", name, "must be a non-empty string without '/', not ending in "
+                      "'.rigid' (a rigid body's own rows)")
     t.finish()
     return JointSpec(name, kind, name_of, point, other, to_point, axis, drive)
 
@@ -325,8 +320,9 @@ def parse_system(raw: Mapping[str, Any], source: str = "<dict>",
                           "in [bodies.NAME])")
     s = Table("system", raw["system"])
     end, step = s.positive("end_time"), s.positive("time_step")
-    if step > end:
-        raise s.error("time_step", step, f"must be <= end_time ({end:g} s)")
+    if not end / MAX_STEPS <= step <= end:
+        raise s.error("time_step", step, f"must be in [end_time / {MAX_STEPS:.0e}, end_time] "
+                      f"= [{end / MAX_STEPS:g}, {end:g}] s")
     b = Table("bodies", raw.get("bodies"))
     if not raw.get("bodies"):
         raise ConfigError.missing("[bodies]", "a system needs bodies: [bodies.NAME] tables")
@@ -338,6 +334,11 @@ def parse_system(raw: Mapping[str, Any], source: str = "<dict>",
             raise ConfigError(f"[bodies.{name}.align] to_body", align[1], "must be a body "
                               "listed above this one: " + (", ".join(listed[:listed.index(name)])
                                                            or "(none)"))
+        for key, owner, given in (("point", body, align and align[0]),
+                                  ("to_point", align and bodies[align[1]], align and align[2])):
+            if given is not None and isinstance(owner, PointMassSpec):
+                raise ConfigError(f"[bodies.{name}.align] {key}", given, f"{owner.name!r} is a "
+                                  "point mass: it is its own point (leave it out)")
     listed = raw.get("joints", [])
     if not isinstance(listed, list) or not all(isinstance(v, Mapping) for v in listed):
         raise ConfigError("[[joints]]", listed, "must be an array of tables ([[joints]])")

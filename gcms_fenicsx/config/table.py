@@ -131,6 +131,17 @@ class Table:
             raise self.error(key, value, f"must be a list of {length} finite numbers")
         return tuple(float(v) for v in value)
 
+    def direction(self, key: str, default: Any = _MISSING) -> tuple[float, ...]:
+        """The unit 3-vector along a finite, non-zero one (scaled by its largest component
+        first, so that neither a huge nor a tiny vector over- or underflows)."""
+        value = self.vector(key, default)
+        big = max(abs(v) for v in value)
+        if big == 0.0:
+            raise self.error(key, list(value), "must be a non-zero vector")
+        scaled = [v / big for v in value]
+        norm = math.sqrt(sum(v * v for v in scaled))
+        return tuple(v / norm for v in scaled)
+
     def string_list(self, key: str, default: Any = _MISSING) -> list[str]:
         value = self.get(key, default)
         if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):

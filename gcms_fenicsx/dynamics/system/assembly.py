@@ -11,7 +11,7 @@ bilinear rows the test is of the start.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -72,6 +72,8 @@ class Assembly:
     gravity_force: np.ndarray           # f_g (N,)
     member_rows: dict[str, MemberRows]
     start_values: np.ndarray            # g(0) of the kept rows
+    dropped_keys: tuple[tuple[int, int], ...] = ()   # (joint, row within it) of each dropped
+    dropped_values: np.ndarray = field(default_factory=lambda: np.zeros(0))   # their g(0)
 
     @property
     def dofs(self) -> int:
@@ -135,6 +137,20 @@ class Assembly:
         both = [row.rates(Q, V, t) for row in self.joints]
         return self._kept([b[0] for b in both]), self._kept([b[1] for b in both])
 
+    def dropped_values_at(self, q: np.ndarray, t: float) -> np.ndarray:
+        """The values of the rows dropped at the start (``dropped``, in that order) at (q, t)."""
+        parts = self.parts(q)
+        values = {j: self.joints[j].value(parts, t) for j in {j for j, _ in self.dropped_keys}}
+        return np.array([values[j][k] for j, k in self.dropped_keys]).reshape(-1)
+
+    def dropped_gap(self, q: np.ndarray, t: float) -> np.ndarray:
+        """How far each dropped row is from holding at (q, t), g − g(0): zero while the kept
+        rows imply it, as they did at the start (a row implied only at a dead centre, or by
+        a mass too small to count, is not: the run must say so, ``march``)."""
+        if not self.dropped_keys:
+            return np.zeros(0)
+        return self.dropped_values_at(q, t) - self.dropped_values
+
     def directions(self, q: np.ndarray, t: float) -> dict[str, np.ndarray]:
         """Each member's rows' directions u_i (k × 3), in :class:`MemberRows` order."""
         parts = self.parts(q)
@@ -191,8 +207,10 @@ def assemble(members: tuple[Member, ...], joints: tuple[Row, ...],
                     "must be the only joint holding what it moves")
     infos = [info for row in joints for info in row.infos()]
     kept = _build(members, offsets, joints, tuple(every[i] for i in keep), q_start, gravity)
-    return replace(kept, rows=tuple(infos[i] for i in keep),
-                   dropped=tuple(info for i, info in enumerate(infos) if i not in keep))
+    kept = replace(kept, rows=tuple(infos[i] for i in keep),
+                   dropped=tuple(info for i, info in enumerate(infos) if i not in keep),
+                   dropped_keys=tuple(every[i] for i in range(len(every)) if i not in keep))
+    return replace(kept, dropped_values=kept.dropped_values_at(q_start, 0.0))
 
 
 def _prescribed(row: Row) -> bool:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
@@ -127,10 +127,13 @@ def march(stepper: AssemblyStepper, start: tuple[State, float], end_time_s: floa
         terms = energy.terms(state, states)
         if n % every == 0 or n == steps:
             rows.append(_row(state, iterations, terms, probes))
+            stopped = _dropped_rows_hold(stepper.assembly, state)
+            if stopped is not None:
+                break
         if time.perf_counter() > report_at:
             progress(f"assembly: t = {state.t:.4g} of {end_time_s:g} s ({n} steps)")
             report_at += 5.0
-    if stopped is not None and done % every:
+    if stopped is not None and done % every and done != steps:
         rows.append(_row(state, iterations, terms, probes))     # the last step that converged
     wall = time.perf_counter() - begun
     run = AssemblyRun(
@@ -144,6 +147,35 @@ def march(stepper: AssemblyStepper, start: tuple[State, float], end_time_s: floa
     if stopped is not None:
         raise StoppedEarly(run, stopped) from stopped
     return run
+
+
+#: A row dropped at the start as implied by the others may stray by this much of the
+#: largest member's size (m; rad for a moment row) before the run says it no longer holds:
+#: far above an elastic member's deflection from a rigid implication, far below a mechanism
+#: leaving a guide it was only tangent to at a dead centre.
+DROPPED_ROW_SLACK = 1e-3
+
+
+def _dropped_rows_hold(a: Any, s: State) -> IntegrationError | None:
+    """None while every row dropped at the start stays within :data:`DROPPED_ROW_SLACK` of
+    holding; else the IntegrationError that ends the run: such a row was implied by the
+    others only at the start (a dead centre: the guide is tangent to the crank's circle there),
+    or the mass that made it so is too small to count, and nothing holds its joint."""
+    gap = a.dropped_gap(s.q, s.t)
+    if not gap.size:
+        return None
+    limits = np.array([DROPPED_ROW_SLACK * (a.size_m if r.kind == "force" else 1.0) + 1e-12
+                       for r in a.dropped])
+    worst = int(np.argmax(np.abs(gap) / limits))
+    if abs(gap[worst]) <= limits[worst]:
+        return None
+    row = a.dropped[worst]
+    return IntegrationError(
+        f"joint {row.joint.split('/')[0]!r}: its row along {np.round(row.axis, 3).tolist()}, "
+        f"dropped at the start as implied by the other joints, no longer holds at t = "
+        f"{s.t:.6g} s (off by {abs(gap[worst]):.3g} {'m' if row.kind == 'force' else 'rad'}): "
+        "it was implied only at the start (a dead centre?) or by a mass too small to count; "
+        "start the mechanism away from that position, or remove the joint", s.t)
 
 
 def _row(s: State, iterations: int, terms: dict[str, float], probes: dict[str, Probe]) -> tuple:
