@@ -52,10 +52,7 @@ class MemberRows(NamedTuple):
     index: np.ndarray
     vectors: np.ndarray
     entries: tuple[tuple[int, int, int], ...]
-
-    @property
-    def starts(self) -> np.ndarray:
-        return np.flatnonzero(np.diff(self.index, prepend=-1))
+    starts: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -251,9 +248,11 @@ def _build(members: tuple[Member, ...], offsets: dict[str, slice], joints: tuple
     for m in members:
         rows = parts[m.name]
         width = m.body.field_count if isinstance(m, Flexible) else 1
-        member_rows[m.name] = MemberRows(np.array([r[0] for r in rows], dtype=int),
+        index = np.array([r[0] for r in rows], dtype=int)
+        member_rows[m.name] = MemberRows(index,
                                          np.array([r[1] for r in rows]).reshape(len(rows), width),
-                                         tuple(r[2] for r in rows))
+                                         tuple(r[2] for r in rows),
+                                         np.flatnonzero(np.diff(index, prepend=-1)))
     g = np.zeros(3) if gravity is None else checks.vector("gravity (m/s²)", gravity)
     built = Assembly(members=tuple(members), offsets=offsets, joints=tuple(joints), kept=kept,
                      rows=(), dropped=(), q_start=q_start, gravity_force=_gravity(members, g),

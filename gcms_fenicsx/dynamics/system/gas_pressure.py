@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Callable
 
 import numpy as np
@@ -67,11 +68,17 @@ class PressureCurve:
         object.__setattr__(self, "angles_deg", a)
         object.__setattr__(self, "pressures_pa", p)
 
-    def __call__(self, phi_deg: float | np.ndarray) -> float | np.ndarray:
-        """p(φ) (Pa), φ taken modulo 720°."""
+    @cached_property
+    def _closed(self) -> tuple[np.ndarray, np.ndarray]:
+        """The table closed over the cycle once: its last point 720° before its first, its first
+        720° after its last, so that every φ in [0°, 720°) lies inside it."""
         a, p = self.angles_deg, self.pressures_pa
-        return np.interp(np.mod(phi_deg, CYCLE_DEG), np.concatenate([a, [a[0] + CYCLE_DEG]]),
-                         np.concatenate([p, [p[0]]]), period=CYCLE_DEG)
+        return (np.concatenate([[a[-1] - CYCLE_DEG], a, [a[0] + CYCLE_DEG]]),
+                np.concatenate([[p[-1]], p, [p[0]]]))
+
+    def __call__(self, phi_deg: float | np.ndarray) -> float | np.ndarray:
+        """p(φ) (Pa), φ taken modulo 720°: linear between the table's points, periodic."""
+        return np.interp(np.mod(phi_deg, CYCLE_DEG), *self._closed)
 
     @property
     def peak(self) -> tuple[float, float]:

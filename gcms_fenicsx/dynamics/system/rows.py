@@ -27,6 +27,7 @@ second; an axis or drive row's λ is a moment (N·m).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any, Callable, Mapping
 
 import numpy as np
@@ -166,11 +167,16 @@ class DrivenRow(Row):
     axis: np.ndarray = field(default_factory=lambda: AXES[2])
     drive: Drive | None = None
 
+    @cached_property
+    def _rodrigues(self) -> tuple[np.ndarray, np.ndarray]:
+        """e × u₀ and (u₀ · e) e of Rodrigues' formula, formed once (``joints.turned``)."""
+        e, u0 = self.axis, self.start
+        return np.cross(e, u0), np.outer(u0 @ e, e)
+
     def turned(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(u, u̇, ü) at t, u₀ turned about the axis by the drive's θ(t) (``joints.turned``)."""
         assert self.drive is not None
-        e, u0 = self.axis, self.start
-        return turned(u0, np.cross(e, u0), np.outer(u0 @ e, e), self.drive.angle(t))
+        return turned(self.start, *self._rodrigues, self.drive.angle(t))
 
     def directions(self, Q: Parts, t: float) -> tuple[np.ndarray, ...]:
         return (self.turned(t)[0],)
