@@ -52,10 +52,12 @@ def load_system(path: Path, raw: dict[str, Any]) -> SystemConfig:
 
 def members(cfg: SystemConfig, models: dict[str, ReducedModel],
             full_order: dict[str, Any] | None = None) -> tuple:
-    """The assembly's members, placed: flexible bodies of their reduced models (or, for a name
-    in ``full_order``, its full-order Body, ``references.full_order``: F = I, a sparse LU of
-    its iteration matrix), rigid bodies, point masses."""
+    """The assembly's members, placed: flexible bodies of their reduced models with their
+    elastic law (co-rotated, or Saint Venant–Kirchhoff of the model's coefficients; or, for a
+    name in ``full_order``, its full-order Body, ``references.full_order``: F = I, a sparse LU
+    of its iteration matrix), rigid bodies, point masses."""
     from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
+    from gcms_fenicsx.dynamics.run.simulate import elastic_law
     from gcms_fenicsx.dynamics.system.members import Flexible, PointMass, placed_coordinates
     from gcms_fenicsx.dynamics.system.rigid import rigid_body, rigid_member, rigid_twin
 
@@ -75,7 +77,9 @@ def members(cfg: SystemConfig, models: dict[str, ReducedModel],
             body = bodies[id(model)]
             if spec.as_rigid:
                 return rigid_member(spec.name, rigid_twin(body), R0, x0)
-            return Flexible(spec.name, body, placed_coordinates(body, R0, x0))
+            law = (elastic_law(model, body, spec.study.scene) if spec.elasticity == "svk"
+                   else None)                                 # None: the co-rotated law
+            return Flexible(spec.name, body, placed_coordinates(body, R0, x0), law=law)
         if isinstance(spec, RigidSpec):
             body = rigid_body(spec.mass_kg, np.array(spec.center_m),
                               np.array(spec.inertia_kgm2), spec.points)

@@ -8,13 +8,11 @@ placed by ``position`` and ``rotation``; ``[[joints]]`` hold a point of one body
 another or to the ground. Parsing only: the bodies' stages and the run are ``app.system_run``'s.
 
 A flexible body's own ``[scene]`` is replaced by one the system's joints imply
-(:func:`body_scene`): the groups they hold are where its attachment modes go
+(``config.body_scene``): the groups they hold are where its attachment modes go
 (``[basis] attachment``), so the reduction knows the assembly's joints.
 """
 from __future__ import annotations
 
-import hashlib
-import json
 import math
 import tomllib
 from dataclasses import dataclass, field, replace
@@ -23,9 +21,10 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from gcms_fenicsx.config.body_scene import body_scene, body_study
 from gcms_fenicsx.config.engine import EngineSpec, parse_engine
-from gcms_fenicsx.config.scene import Drive, parse_drive
-from gcms_fenicsx.config.study import KNOWN_TABLES, StudyConfig, parse_config
+from gcms_fenicsx.config.scene import ELASTICITIES, Drive, parse_drive
+from gcms_fenicsx.config.study import KNOWN_TABLES, StudyConfig
 from gcms_fenicsx.config.table import ConfigError, Table
 from gcms_fenicsx.numerics.rotation import rotation_about
 
@@ -37,9 +36,6 @@ MAX_STEPS = 1e8
 GROUND = "ground"
 #: Tables of a flexible body's study that may be given inline in [bodies.NAME].
 BODY_STUDY_TABLES = tuple(t for t in KNOWN_TABLES if t != "scene")
-#: The scene joint a system joint implies on a flexible body's group (its attachment loads).
-SCENE_JOINT = {"spherical": "spherical", "revolute": "revolute", "cylindrical": "revolute",
-               "prismatic": "fixed", "fixed": "fixed"}
 
 
 @dataclass(frozen=True)
@@ -63,7 +59,7 @@ class Placement:
 @dataclass(frozen=True)
 class FlexibleSpec:
     """A flexible body: its study's tables (without a scene), where they come from, its
-    placement, and the study parsed with the scene its joints imply (:func:`body_scene`)."""
+    placement, and the study parsed with the scene its joints imply (``config.body_scene``)."""
 
     name: str
     tables: Mapping[str, Any]
@@ -74,6 +70,8 @@ class FlexibleSpec:
     model_key: str = ""
     #: stepped as the rigid body of its mass properties (``rigid.rigid_twin``)
     as_rigid: bool = False
+    #: its elastic law: "corotated" or "svk" (``[scene] elasticity`` of a one-body study)
+    elasticity: str = "corotated"
     kind: str = field(default="flexible", init=False)
 
 
@@ -222,8 +220,9 @@ def _flexible(name: str, t: Table, raw: Mapping[str, Any], folder: Path) -> Flex
         inline, source = {k: v for k, v in study.items() if k != "scene"}, str(path)
     else:
         source = f"[{t.name}]"
-    return FlexibleSpec(name, inline, source, _placement(t), as_rigid=t.boolean("as_rigid",
-                                                                               False))
+    return FlexibleSpec(name, inline, source, _placement(t),
+                        as_rigid=t.boolean("as_rigid", False),
+                        elasticity=t.choice("elasticity", ELASTICITIES, "corotated"))
 
 
 def _body(name: str, raw: Any, folder: Path) -> BodySpec:
@@ -360,37 +359,11 @@ def parse_system(raw: Mapping[str, Any], source: str = "<dict>",
     return replace(cfg, bodies=tuple(_with_study(cfg, body) for body in cfg.bodies))
 
 
-def body_scene(cfg: SystemConfig, body: FlexibleSpec) -> dict[str, Any] | None:
-    """The ``[scene]`` table of a flexible body that the system's joints imply: a joint of the
-    scene's kind (:data:`SCENE_JOINT`) at each group they hold, its axis in the body's own
-    coordinates; None when no joint holds the body."""
-    R0 = body.placement.matrix
-    joints: list[dict[str, Any]] = []
-    for j in cfg.joints:
-        for owner, group in ((j.body, j.point), (j.to_body, j.to_point)):
-            if owner == body.name:
-                held = sum(e["group"] == group for e in joints)
-                entry: dict[str, Any] = {"name": f"{group}_{held}" if held else group,
-                                         "type": SCENE_JOINT[j.type], "group": group}
-                if entry["type"] == "revolute":
-                    entry["axis"] = (np.round(R0.T @ np.array(j.axis), 12) + 0.0).tolist()
-                joints.append(entry)
-    if not joints:
-        return None
-    return {"end_time": cfg.end_time_s, "time_step": cfg.time_step_s, "joints": joints}
-
-
 def _with_study(cfg: SystemConfig, body: BodySpec) -> BodySpec:
-    """A flexible body with its study parsed, the scene its joints imply added; a ConfigError
-    in it names the body."""
+    """A flexible body with its study parsed, the scene its joints imply added
+    (``config.body_scene``)."""
     if not isinstance(body, FlexibleSpec):
         return body
-    scene = body_scene(cfg, body)
-    tables = dict(body.tables) | ({"scene": scene} if scene else {})
-    try:
-        study = parse_config(tables, body.source)
-    except ConfigError as exc:
-        raise ConfigError(f"body {body.name!r} ({body.source}): {exc.key}", exc.value,
-                          exc.allowed) from exc
-    key = hashlib.sha256(json.dumps(tables, sort_keys=True, default=repr).encode()).hexdigest()
+    study, key = body_study(body, body_scene(cfg.joints, body, cfg.end_time_s,
+                                             cfg.time_step_s))
     return replace(body, study=study, model_key=key)

@@ -1,0 +1,59 @@
+"""The scene a system study's joints imply on a flexible body, and the body's study parsed
+with it (``config.system``, docs/study-file.md "System studies").
+
+A flexible body's own ``[scene]`` is replaced by one the system's joints imply: a joint at
+each group they hold (:data:`SCENE_JOINT`), so ``[basis] attachment = "scene"`` gives it the
+attachment modes of the assembly's joints, and its ``elasticity`` (the Saint Venant–Kirchhoff
+law puts its coefficients into the reduced model). Bodies whose tables and implied scene are
+the same share one reduced model (``model_key``).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from typing import Any, Sequence
+
+import numpy as np
+
+from gcms_fenicsx.config.study import StudyConfig, parse_config
+from gcms_fenicsx.config.table import ConfigError
+
+#: The scene joint a system joint implies on a flexible body's group (its attachment loads).
+SCENE_JOINT = {"spherical": "spherical", "revolute": "revolute", "cylindrical": "revolute",
+               "prismatic": "fixed", "fixed": "fixed"}
+
+
+def body_scene(joints: Sequence[Any], body: Any, end_time_s: float, time_step_s: float
+               ) -> dict[str, Any] | None:
+    """The ``[scene]`` table of the flexible ``body`` (``config.system.FlexibleSpec``) that the
+    system's ``joints`` imply: a joint of the scene's kind (:data:`SCENE_JOINT`) at each group
+    they hold, its axis in the body's own coordinates, and the body's ``elasticity`` when not
+    co-rotated; None when nothing is to be said."""
+    R0 = body.placement.matrix
+    implied: list[dict[str, Any]] = []
+    for j in joints:
+        for owner, group in ((j.body, j.point), (j.to_body, j.to_point)):
+            if owner == body.name:
+                held = sum(e["group"] == group for e in implied)
+                entry: dict[str, Any] = {"name": f"{group}_{held}" if held else group,
+                                         "type": SCENE_JOINT[j.type], "group": group}
+                if entry["type"] == "revolute":
+                    entry["axis"] = (np.round(R0.T @ np.array(j.axis), 12) + 0.0).tolist()
+                implied.append(entry)
+    if not implied and body.elasticity == "corotated":
+        return None
+    return {"end_time": end_time_s, "time_step": time_step_s, "joints": implied,
+            **({"elasticity": body.elasticity} if body.elasticity != "corotated" else {})}
+
+
+def body_study(body: Any, scene: dict[str, Any] | None) -> tuple[StudyConfig, str]:
+    """The flexible ``body``'s study parsed with ``scene`` added, and its model key (the digest
+    of its tables and scene); a ConfigError in it names the body."""
+    tables = dict(body.tables) | ({"scene": scene} if scene else {})
+    try:
+        study = parse_config(tables, body.source)
+    except ConfigError as exc:
+        raise ConfigError(f"body {body.name!r} ({body.source}): {exc.key}", exc.value,
+                          exc.allowed) from exc
+    return study, hashlib.sha256(json.dumps(tables, sort_keys=True, default=repr)
+                                 .encode()).hexdigest()
