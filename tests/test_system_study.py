@@ -274,7 +274,9 @@ def test_a_slider_on_a_frames_rail_is_the_closed_form(tmp_path, slider):
     (``relative_rows.on_member_line``; for a rigid slider also ``align_axes`` and
     ``hold_turn``: no relative rotation). The frame does not move, so the slider follows the
     closed form as with its guide to the ground (1e-12 m; measured 1e-16 m), the frame holds
-    still (1e-12 m) and the rigid slider does not turn (its A stays I to 1e-12)."""
+    still (1e-12 m) and the rigid slider does not turn (its A stays I to 1e-12); the rail's
+    force on the frame (its first body) is the ground guide's force on the slider, reversed,
+    to 1e-8 of its peak (measured 1.6e-9: the Newton iterations differ)."""
     from gcms_fenicsx.app.commands import run_system
     from gcms_fenicsx.references.slider_crank_assembly import rigid_closed_form
 
@@ -293,6 +295,12 @@ def test_a_slider_on_a_frames_rail_is_the_closed_form(tmp_path, slider):
     run_system(cfg, tmp_path / "out")
     with h5py.File(tmp_path / "out" / "system.h5") as f:
         t, slider_q, frame = f["time_s"][()], f["bodies/slider/q"][()], f["bodies/frame/q"][()]
+        rail = f["joints/guide/force_n"][()]
+    run_system(parse_system(tomllib.loads(RIGID), "ground", tmp_path), tmp_path / "ground")
+    with h5py.File(tmp_path / "ground" / "system.h5") as f:
+        guide = f["joints/guide/force_n"][()]
+    assert np.abs(guide).max() > 1.0               # the guide carries the conrod's thrust
+    np.testing.assert_allclose(rail, -guide, rtol=0, atol=1e-8 * np.abs(guide).max())
     ref = rigid_closed_form(t, CONROD_MASS, L2 / 2, CONROD_J + CONROD_MASS * (L2 / 2) ** 2)
     assert np.abs(slider_q[:, 0] - ref["slider_m"]).max() <= 1e-12
     assert np.abs(frame - frame[0]).max() <= 1e-12

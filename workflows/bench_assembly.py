@@ -21,7 +21,6 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before NumPy
 
-import dataclasses
 import time
 from pathlib import Path
 from typing import Any
@@ -88,7 +87,7 @@ def main() -> None:
     from mpi4py import MPI
 
     from gcms_fenicsx.app.commands import system_models
-    from gcms_fenicsx.app.system_run import load_system, system_file
+    from gcms_fenicsx.app.system_run import load_system, rigid_twin_study, system_file
 
     study = HERE / "crank_train.toml"
     cfg = load_system(study, system_file(study))
@@ -103,10 +102,8 @@ def main() -> None:
                      "members": count, "coordinates": stepper.assembly.dofs,
                      "us_per_step": us, "newton_per_step": newton})
         log(f"{rows[-1]['case']}: {us:.0f} µs a step")
-    rigid = dataclasses.replace(cfg, bodies=tuple(
-        dataclasses.replace(b, as_rigid=True) if b.kind == "flexible" else b
-        for b in cfg.bodies))
-    for label, study_cfg in (("crank train", cfg), ("crank train, rigid twin", rigid)):
+    for label, study_cfg in (("crank train", cfg),
+                             ("crank train, rigid twin", rigid_twin_study(cfg))):
         stepper, start = train(study_cfg, models)
         us, newton = best_us_per_step(stepper, start, args.repeat)
         rows.append({"case": label, "members": len(stepper.assembly.members),

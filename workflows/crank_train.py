@@ -33,7 +33,6 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before NumPy
 
-import dataclasses
 import math
 import time
 from pathlib import Path
@@ -76,13 +75,6 @@ def load(path: Path) -> Any:
     return cfg
 
 
-def rigid_twin(cfg: Any) -> Any:
-    """The same study with every flexible body stepped as rigid."""
-    return dataclasses.replace(cfg, bodies=tuple(
-        dataclasses.replace(b, as_rigid=True) if b.kind == "flexible" else b
-        for b in cfg.bodies))
-
-
 def series(folder: Path) -> dict:
     """What the comparisons read of a run's system.h5 and summary."""
     import h5py
@@ -102,11 +94,16 @@ def simulate(cfg: Any, models: dict, folder: Path) -> dict:
 
     folder.mkdir(parents=True, exist_ok=True)
     summary = simulate_system(cfg, models, folder, log)
+    if not summary["complete"]:
+        raise SystemExit(f"crank_train: the run stopped early: {summary['message']}")
     return {"summary": summary, **series(folder)}
 
 
 def families(joints: dict, stem: str) -> list[str]:
-    return sorted(name for name in joints if name.rstrip("0123456789").rstrip("_") == stem)
+    """The joints of one family (``system_plots.family``: names without their number)."""
+    from gcms_fenicsx.app.system_plots import family
+
+    return sorted(name for name in joints if family(name) == stem)
 
 
 def bearing_total(run: dict) -> np.ndarray:
@@ -321,6 +318,7 @@ def main() -> None:
     from mpi4py import MPI
 
     from gcms_fenicsx.app.commands import system_models
+    from gcms_fenicsx.app.system_run import rigid_twin_study
 
     cfg = load(args.study)
     with temporary_folder("crank_train_") as work:
@@ -329,7 +327,7 @@ def main() -> None:
         log("the train as written")
         flexible = simulate(cfg, models, work / "flexible")
         log("its rigid twin")
-        rigid = simulate(rigid_twin(cfg), models, work / "rigid")
+        rigid = simulate(rigid_twin_study(cfg), models, work / "rigid")
         result: dict = {
             "runs": {"flexible": summary_row(flexible["summary"]),
                      "rigid": summary_row(rigid["summary"])},

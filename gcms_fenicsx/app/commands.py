@@ -215,6 +215,6 @@ def run_system(cfg: SystemConfig, out: Path, fresh: bool = False) -> str:
         except Interrupted as exc:
             raise PicturesInterrupted(exc.signum, "system.h5, summary.json") from exc
     text = "\n".join([*texts, system_run.system_text(summary) if comm.rank == 0 else ""])
-    if not comm.bcast(summary["complete"] if comm.rank == 0 else None, root=0):
+    if not summary["complete"]:                  # every rank has it (on_rank0): no collective
         raise SimulationIncomplete(text)         # its rows up to the failed step are written
     return text

@@ -1,7 +1,8 @@
 """``gcms run`` on a system study (``config.system``): every flexible body's stages, each in
 ``--out/bodies/NAME`` with its own stage cache (``--fresh``, progress and errors as a one-body
 study's), then the assembly (``dynamics.system``) stepped on rank 0 and its files written
-into ``--out``, published together when the run succeeded (``files.outputs.staged_output``).
+into ``--out``, published with the bodies' stages when the run succeeded or stopped early
+(its rows up to there, marked incomplete; ``files.outputs.staged_output``).
 
 Files (docs/files.md): ``system.h5`` — ``time_s``, ``iterations``, ``energy/*``, the kept rows
 (``rows/joint``, ``rows/kind``, ``rows/axis``, ``rows/unit``) and their ``multipliers``, each
@@ -66,6 +67,9 @@ def members(cfg: SystemConfig, models: dict[str, ReducedModel],
     def member(spec: Any, x0: np.ndarray) -> Any:
         R0 = spec.placement.matrix
         if isinstance(spec, FlexibleSpec) and spec.name in (full_order or {}):
+            if spec.elasticity != "corotated":
+                raise ValueError(f"reference (a) of {spec.name!r} is co-rotated only: its "
+                                 f"elasticity = {spec.elasticity!r} has no full-order law here")
             from gcms_fenicsx.references.full_order import sparse_factorization
             body = full_order[spec.name]
             return Flexible(spec.name, body, placed_coordinates(body, R0, x0),
@@ -92,9 +96,10 @@ def members(cfg: SystemConfig, models: dict[str, ReducedModel],
         try:
             x0 = np.array(spec.placement.position)
             if align is not None:
+                at_origin = member(spec, np.zeros(3))
                 key, value = f"[bodies.{spec.name}.align]", dict(zip(
                     ("point", "to_body", "to_point"), align))
-                x0 = aligned_position(align, member(spec, np.zeros(3)), made)
+                x0 = aligned_position(align, at_origin, made)
                 key, value = f"[bodies.{spec.name}]", spec.kind
             made[spec.name] = member(spec, x0)
         except ValueError as exc:
@@ -226,6 +231,15 @@ def gas_loads(cfg: SystemConfig, assembly: Any) -> Any:
     if T == 0.0:
         return gas
     return lambda t: gas(t) * (0.5 * (1.0 - math.cos(math.pi * t / T)) if t < T else 1.0)
+
+
+def rigid_twin_study(cfg: SystemConfig) -> SystemConfig:
+    """The same study with every flexible body stepped as the rigid body of its mass
+    properties (``as_rigid``): the assembly with its elasticity taken away."""
+    from dataclasses import replace
+
+    return replace(cfg, bodies=tuple(replace(b, as_rigid=True) if isinstance(b, FlexibleSpec)
+                                     else b for b in cfg.bodies))
 
 
 def pressure_curve(engine: Any) -> Any:

@@ -146,10 +146,8 @@ def _placement(t: Table) -> Placement:
     rotation = np.eye(3)
     if t.has("rotation"):
         r = Table(f"{t.name}.rotation", t.subtable("rotation"))
-        axis = np.array(r.vector("axis"))
-        if not np.linalg.norm(axis) > 0:
-            raise r.error("axis", axis.tolist(), "must be a non-zero vector")
-        rotation = rotation_about(axis / np.linalg.norm(axis), math.radians(r.number("angle")))
+        rotation = rotation_about(np.array(r.direction("axis")),
+                                  math.radians(r.number("angle")))
         r.finish()
     align = None
     if t.has("align"):
@@ -284,8 +282,8 @@ def _joint(t: Table, bodies: dict[str, BodySpec]) -> JointSpec:
         raise t.error("type", kind, "a point mass has no rotation to hold: join it by a "
                       "spherical joint, or put it on a line (cylindrical or prismatic) to the "
                       "ground or as the to_body of another body's")
-    axis = (t.direction("axis") if kind not in ("spherical", "fixed") or kind == "fixed" and t.has("axis")
-            else None)
+    needs_axis = kind not in ("spherical", "fixed") or kind == "fixed" and t.has("axis")
+    axis = t.direction("axis") if needs_axis else None
     drive = None
     if t.has("drive"):
         if kind != "revolute" or other != GROUND:

@@ -116,7 +116,7 @@ def march(stepper: AssemblyStepper, start: tuple[State, float], end_time_s: floa
     begun = time.perf_counter()
     report_at = begun + 5.0
     stopped: IntegrationError | None = None
-    done = 0
+    done, watched = 0, bool(stepper.assembly.dropped_keys)
     for n in range(1, steps + 1):
         try:
             state, states, iterations = stepper.step(state)
@@ -125,15 +125,15 @@ def march(stepper: AssemblyStepper, start: tuple[State, float], end_time_s: floa
             break
         done, total_iterations = n, total_iterations + iterations
         terms = energy.terms(state, states)
-        if n % every == 0 or n == steps:
+        stopped = _dropped_rows_hold(stepper.assembly, state) if watched else None
+        if n % every == 0 or n == steps or stopped is not None:
             rows.append(_row(state, iterations, terms, probes))
-            stopped = _dropped_rows_hold(stepper.assembly, state)
-            if stopped is not None:
-                break
+        if stopped is not None:
+            break
         if time.perf_counter() > report_at:
             progress(f"assembly: t = {state.t:.4g} of {end_time_s:g} s ({n} steps)")
             report_at += 5.0
-    if stopped is not None and done % every and done != steps:
+    if stopped is not None and done % every and done != steps and rows[-1][0] != state.t:
         rows.append(_row(state, iterations, terms, probes))     # the last step that converged
     wall = time.perf_counter() - begun
     run = AssemblyRun(

@@ -10,11 +10,12 @@ a point of another is bilinear:
   group parallel to the same direction of another's (the tilt rows of a revolute joint
   between two bodies, two rows); :func:`hold_turn` holds their relative turning about it (one
   row: with align_axes, all three relative rotations — a fixed or prismatic joint);
-- :class:`LineRow` — g_k = n_k(q_A) · (x_B − x_A) − g_k(0), n_k = L_A n̄_k the two directions
+- :class:`LineRow` — g_k = n_k(q_A) · (x_A − x_B) − g_k(0), n_k = L_A n̄_k the two directions
   of A's group ⊥ the axis: :func:`on_member_line` keeps B's point on the line along A's
   axis through where it starts, turning and bending with A (a piston in its bore: a
   cylindrical or prismatic joint between two bodies). Terms: (A, w_k) with direction
-  x_B − x_A, (A, −h_A) and (B, h_B) with direction n_k; γ = −2 ṅ_k · (ẋ_B − ẋ_A).
+  x_A − x_B, (A, h_A) and (B, −h_B) with direction n_k; γ = −2 ṅ_k · (ẋ_A − ẋ_B). As a
+  coincidence's, its multiplier λ_k is the force −λ_k n_k on A, +λ_k n_k on B.
 
 Every row holds where the assembly starts (g(0) is its value there). NumPy only.
 """
@@ -51,11 +52,11 @@ class BilinearRow(Row):
 
 @dataclass(frozen=True)
 class LineRow(Row):
-    """n_k · (x_B − x_A): terms (A, w) (n = Q_Aᵀ w), (A, −h_A), (B, h_B) (module docstring)."""
+    """n_k · (x_A − x_B): terms (A, w) (n = Q_Aᵀ w), (A, h_A), (B, −h_B) (module docstring)."""
 
     def _parts(self, Q: Parts) -> tuple[np.ndarray, np.ndarray]:
         normals, own, other = self.terms
-        gap = own.values(Q[own.member])[0] + other.values(Q[other.member])[0]   # x_B − x_A
+        gap = own.values(Q[own.member])[0] + other.values(Q[other.member])[0]   # x_A − x_B
         return normals.values(Q[normals.member]), gap
 
     def directions(self, Q: Parts, t: float) -> tuple[np.ndarray, ...]:
@@ -78,15 +79,16 @@ def _within(member: Flexible, group: str, d: np.ndarray) -> bool:
 
 
 def _pair(joint: str, a: Flexible, group_a: str, b: Flexible, group_b: str, c: np.ndarray,
-          candidates: tuple[tuple[np.ndarray, np.ndarray], ...]) -> tuple[np.ndarray, np.ndarray]:
+          candidates: tuple[tuple[np.ndarray, np.ndarray], ...], needs: str
+          ) -> tuple[np.ndarray, np.ndarray]:
     """The first (p, s) of ``candidates`` (p × s = c) with a's group along p and b's along s;
-    ValueError naming the groups when none is."""
+    ValueError naming the groups and what they ``needs`` when none is."""
     for p, s in candidates:
         if _within(a, group_a, p) and _within(b, group_b, s):
             return p, s
     raise ValueError(f"joint {joint!r}: groups {group_a!r} of {a.name!r} and {group_b!r} of "
                      f"{b.name!r} cannot hold the rotation about {np.round(c, 3).tolist()}: "
-                     "they do not extend across it")
+                     + needs)
 
 
 def _bilinear(joint: str, a: Flexible, group_a: str, b: Flexible, group_b: str,
@@ -106,27 +108,29 @@ def align_axes(joint: str, a: Flexible, group_a: str, b: Flexible, group_b: str,
     s = c × e where a's group extends along e and b's along s, else s = e, p = e × c. Two rows;
     ValueError naming the groups when neither pair lies in them."""
     e = unit_axis(joint, axis)
+    needs = (f"one must extend along {np.round(e, 3).tolist()} and the other across it")
     pairs = [_pair(joint, a, group_a, b, group_b, c,
-                   ((e, np.cross(c, e)), (np.cross(e, c), e))) for c in plane_basis(e)]
+                   ((e, np.cross(c, e)), (np.cross(e, c), e)), needs) for c in plane_basis(e)]
     return _bilinear(joint, a, group_a, b, group_b, pairs, np.array(plane_basis(e)))
 
 
 def hold_turn(joint: str, a: Flexible, group_a: str, b: Flexible, group_b: str,
               axis: np.ndarray) -> BilinearRow:
     """The relative turning of a's and b's groups about ``axis`` e is held: the row
-    (L_A p) · (L_B s), p and s ⊥ e with p × s = e (b1 × b2 = e for ``plane_basis``: the pairs
-    (b1, b2), (b2, −b1), (−b1, −b2), (−b2, b1), the first the groups extend along). Its
-    multiplier is the moment about e. ValueError naming the groups when none lies in them."""
+    (L_A p) · (L_B s), p and s ⊥ e with p × s = e (b1 × b2 = e for ``plane_basis``: the pair
+    (b1, b2) or (b2, −b1), the first the groups extend along; a group extends along −d where
+    along d). Its multiplier is the moment about e. ValueError naming the groups when neither
+    lies in them."""
     e = unit_axis(joint, axis)
     b1, b2 = plane_basis(e)
-    pair = _pair(joint, a, group_a, b, group_b, e,
-                 ((b1, b2), (b2, -b1), (-b1, -b2), (-b2, b1)))
+    pair = _pair(joint, a, group_a, b, group_b, e, ((b1, b2), (b2, -b1)),
+                 "both must extend across it")
     return _bilinear(joint, a, group_a, b, group_b, [pair], e[None, :])
 
 
 def on_member_line(joint: str, a: Flexible, group_a: str, b: Point, axis: np.ndarray) -> LineRow:
     """``b`` stays on the line along a's group's direction ``axis`` through where it starts,
-    the line turning and bending with the group: two rows n_k · (x_b − x_a), n_k the group's
+    the line turning and bending with the group: two rows n_k · (x_a − x_b), n_k the group's
     directions ⊥ the axis (``plane_basis``; each a force along n_k, N). ValueError when the
     group does not extend across the axis, or b is the group itself."""
     e = unit_axis(joint, axis)
@@ -140,6 +144,6 @@ def on_member_line(joint: str, a: Flexible, group_a: str, b: Point, axis: np.nda
                              f"along {np.round(n, 3).tolist()}, across the axis "
                              f"{np.round(e, 3).tolist()}: it cannot carry the line")
     return LineRow(joint, (Term(a.name, np.array([group_vector(a, group_a, n) for n in normals])),
-                           Term(a.name, -np.tile(own.position, (2, 1))),
-                           Term(b.member, np.tile(b.vector, (2, 1)))),
+                           Term(a.name, np.tile(own.position, (2, 1))),
+                           Term(b.member, -np.tile(b.vector, (2, 1)))),
                    np.array(normals), "force")
