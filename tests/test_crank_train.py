@@ -37,7 +37,7 @@ def test_the_crank_train_study_is_one_crankshaft_four_conrods_of_one_model_four_
     conrods = [b for b in cfg.flexible if b.name.startswith("conrod")]
     assert len(conrods) == 4 and len({b.model_key for b in conrods}) == 1
     assert cfg.engine.pistons == ("piston1", "piston2", "piston3", "piston4")
-    drive = next(j for j in cfg.joints if j.name == cfg.engine.crank_drive).drive
+    drive = cfg.crank_drive
     # two four-stroke cycles at speed after the spin-up
     turned = drive.angular_velocity * (cfg.end_time_s - drive.ramp_time_s)
     assert turned == pytest.approx(2 * 4 * math.pi, rel=1e-5)
@@ -75,7 +75,7 @@ def test_a_coarse_crank_train_balances_its_energy_and_its_rigid_twin_the_gas_wor
         models, stages, _ = built
     assert [stages[f"conrod{k}"] for k in (2, 3, 4)] == [{"model_of": "conrod1"}] * 3
     geometry = {b.name: b.study.plan.body.geometry for b in cfg.flexible}
-    drive = next(j.drive for j in cfg.joints if j.name == cfg.engine.crank_drive)
+    drive = cfg.crank_drive
     spin_up, omega = drive.ramp_time_s, drive.angular_velocity
     cycle = indicated_work_j(pressure_curve(cfg.engine), cfg.engine.bore_m,
                              geometry["crankshaft"].stroke / 2, geometry["conrod1"].length)

@@ -139,7 +139,7 @@ def indicated_work_j(cfg: Any) -> float:
 
 def at_speed(cfg: Any) -> float:
     """The time the crank drive and the gas forces have risen in."""
-    drive = next(j.drive for j in cfg.joints if j.name == cfg.engine.crank_drive)
+    drive = cfg.crank_drive
     return max(drive.ramp_time_s, cfg.engine.ramp_time_s)
 
 
@@ -149,7 +149,7 @@ def work_balance(cfg: Any, run: dict) -> dict:
     drive = run["joints"][cfg.engine.crank_drive]["drive_torque_nm"]
     inside = t >= at_speed(cfg) - 1e-12
     i0 = int(np.argmax(inside))
-    omega = next(j.drive for j in cfg.joints if j.name == cfg.engine.crank_drive).angular_velocity
+    omega = cfg.crank_drive.angular_velocity
     turned = omega * (t[-1] - t[i0])
     cycles = turned / (4.0 * math.pi)
     gas = float(e["load_work"][-1] - e["load_work"][i0])

@@ -224,7 +224,7 @@ def gas_loads(cfg: SystemConfig, assembly: Any) -> Any:
     cylinders = tuple(gas_pressure.Cylinder(piston, engine.bore_m,
                                             np.array(engine.towards_crank), firing[k + 1], curve)
                       for k, piston in enumerate(engine.pistons))
-    drive = next(j.drive for j in cfg.joints if j.name == engine.crank_drive)
+    drive = cfg.crank_drive
     gas = gas_pressure.cylinder_loads(assembly.offsets, assembly.dofs, cylinders,
                                       lambda t: math.degrees(drive.angle(t)[0]))
     T = engine.ramp_time_s
@@ -277,7 +277,7 @@ def engine_series(cfg: SystemConfig, gas: Any, offsets: dict[str, slice],
     engine = cfg.engine
     if engine is None:
         return {}
-    drive = next(j.drive for j in cfg.joints if j.name == engine.crank_drive)
+    drive = cfg.crank_drive
     towards = np.array(engine.towards_crank)
     forces = np.array([[gas(t)[offsets[p]].dot(towards) for p in engine.pistons]
                        for t in time_s])

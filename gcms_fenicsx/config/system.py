@@ -32,7 +32,7 @@ SYSTEM_TABLES = ("system", "bodies", "joints", "engine")
 JOINT_TYPES = ("spherical", "revolute", "cylindrical", "prismatic", "fixed")
 #: A run of more steps than this is a time step given in the wrong unit (days at ~300 steps/s).
 MAX_STEPS = 1e8
-#: Joints that hold one body to another (the rest hold a body to the ground only).
+#: The other end of a joint that holds a body where it starts.
 GROUND = "ground"
 #: Tables of a flexible body's study that may be given inline in [bodies.NAME].
 BODY_STUDY_TABLES = tuple(t for t in KNOWN_TABLES if t != "scene")
@@ -135,6 +135,12 @@ class SystemConfig:
     @property
     def flexible(self) -> tuple[FlexibleSpec, ...]:
         return tuple(b for b in self.bodies if isinstance(b, FlexibleSpec))
+
+    @property
+    def crank_drive(self) -> Drive:
+        """The drive of the ``[engine]``'s crank_drive joint: its angle is the crank angle."""
+        assert self.engine is not None
+        return next(j.drive for j in self.joints if j.name == self.engine.crank_drive)
 
 
 def is_system(raw: Mapping[str, Any]) -> bool:
