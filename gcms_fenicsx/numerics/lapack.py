@@ -33,6 +33,8 @@ def _multiarray_dot() -> Callable:
 
 #: (W, s, Vᵀ) of A = W diag(s) Vᵀ, singular values descending.
 svd = _gufunc(("svd_n_f", "svd_f"), np.linalg.svd)
+#: det A of a square matrix, or of a stack of them.
+determinant = _gufunc(("det",), np.linalg.det)
 #: A⁻¹ of a square matrix.
 inverse = _gufunc(("inv",), np.linalg.inv)
 #: dot(a, b, out): a · b written into the C-contiguous ``out``.

@@ -27,7 +27,9 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from gcms_fenicsx.dynamics.bodies.body import Body
-from gcms_fenicsx.numerics.rotation import AXIAL_ROWS, SKEW_ROWS, Polar, axial, polar, skew
+from gcms_fenicsx.numerics.lapack import determinant, svd
+from gcms_fenicsx.numerics.rotation import (AXIAL_ROWS, SKEW_ROWS, InvertedBodyError, Polar,
+                                            axial, polar, skew)
 
 E_CROSS = skew(np.eye(3))  # [e_k]× for k = x, y, z, stacked (3, 3, 3)
 #: A (nf, 3) times this is [A [e_k]×]_k laid out (nf, 3, 3) with k last (columns of Ĉ).
@@ -87,6 +89,42 @@ def elastic_state(body: Body, q: np.ndarray) -> ElasticState:
     P = p.reshape(-1, 3)
     b, gradient = frame_force(body, frame, local, P)
     return ElasticState(frame, local, P, b, gradient, e, p)
+
+
+class ElasticStates(NamedTuple):
+    """The co-rotated energy of k configurations of one body (:func:`elastic_states`): the
+    forces ∂V/∂q of all of them (k n,), their energies summed, and their frames (k, 3, 3)."""
+
+    force: np.ndarray
+    energy: float
+    rotation: np.ndarray
+
+
+def elastic_states(body: Body, Q: np.ndarray) -> ElasticStates:
+    """:func:`elastic_state`'s V and ∂V/∂q for k configurations Q (k, nf, 3) of one dense
+    reduced body at once — the members of an assembly that share a model: the same formulas
+    (module docstring) with every product over the fields taken for the k of them together
+    (k columns, or a stack of k frames), so k configurations make one configuration's NumPy
+    calls. InvertedBodyError for the first whose affine map has no rotation."""
+    pr = body.projections
+    k, nf = Q.shape[:2]
+    W, s, Vt = svd(np.matmul(Q.transpose(0, 2, 1), body.affine))     # Qᵀ H = W Σ Vᵀ
+    R = np.matmul(W, Vt)
+    # det R = ±1: a reflected or degenerate map makes this ≤ 1e-12 (``polar``'s test)
+    if not (determinant(R) * s[:, 2] / s[:, 0]).min() > 1e-12:
+        bad = int(np.argmin(determinant(R) * s[:, 2] / s[:, 0]))
+        raise InvertedBodyError(np.linalg.det(Q[bad].T @ body.affine), s[bad])
+    local = np.matmul(Q, R)                                            # Q_loc = Q R
+    e = (np.matmul(pr.deformation, local) - pr.q0).reshape(k, 3 * nf)  # Π (Q R − Q0)
+    p = e.dot(pr.stiffness.T)                                          # Πᵀ Kr e
+    P = p.reshape(k, nf, 3)
+    w = np.matmul(local.transpose(0, 2, 1), P).reshape(k, 9).dot(AXIAL_ROWS)
+    # b = S⁻¹ w(Q_locᵀ P) = V (Vᵀ w / (tr Σ − Σ))  (``Polar.rate_solve``)
+    b = np.einsum("kji,kj->ki", Vt, np.einsum("kij,kj->ki", Vt, w)
+                  / (s.sum(axis=1, keepdims=True) - s))
+    gradient = P - b.dot(pr.affine_cross).reshape(k, nf, 3)            # P − H [b]×
+    force = np.matmul(gradient, R.transpose(0, 2, 1)).reshape(-1)
+    return ElasticStates(force, 0.5 * float(np.vdot(e, p)), R)
 
 
 def frame_force(body: Body, frame: Polar, local: np.ndarray, P: np.ndarray

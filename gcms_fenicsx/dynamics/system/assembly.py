@@ -12,11 +12,13 @@ bilinear rows the test is of the start.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Any, NamedTuple
+from functools import cached_property
+from typing import Any, NamedTuple, Sequence
 
 import numpy as np
 
 from gcms_fenicsx.dynamics.constraints.joints import RowInfo, independent_rows
+from gcms_fenicsx.dynamics.system.blocks import Block, RowScatter, group_blocks
 from gcms_fenicsx.dynamics.system.members import Flexible, Member
 from gcms_fenicsx.dynamics.system.rigid import Rigid, rigidity
 from gcms_fenicsx.dynamics.system import checks
@@ -46,13 +48,15 @@ class BlockDiagonal:
 class MemberRows(NamedTuple):
     """A member's part of the kept rows: row ``index[i]`` has the Jacobian block kron(v_i, u_i)
     over its coordinates (``vectors`` k × its fields, constant); ``entries`` (joint, term, row
-    within the joint) says where u_i comes from. ``index`` is ascending; ``starts`` are the
-    positions where a new row begins (a row may have several terms on one member)."""
+    within the joint) says where u_i comes from, ``terms`` where the u_i are in
+    :meth:`Assembly.directions`. ``index`` is ascending; ``starts`` are the positions where a
+    new row begins (a row may have several terms on one member)."""
 
     index: np.ndarray
     vectors: np.ndarray
     entries: tuple[tuple[int, int, int], ...]
     starts: np.ndarray
+    terms: slice
 
 
 @dataclass(frozen=True)
@@ -90,13 +94,34 @@ class Assembly:
         """C at the start."""
         return self.jacobian(self.q_start, 0.0)
 
+    @cached_property
+    def blocks(self) -> tuple[Block, ...]:
+        """The members as the step works on them (``blocks``: a model's members together)."""
+        return group_blocks(self.members, self.offsets, self._scatter)
+
+    def _scatter(self, group: Sequence[Member]) -> RowScatter:
+        """The :class:`~blocks.RowScatter` of the rows of ``group``'s members, in its order."""
+        terms, owners, vectors, starts, coords, rows = [], [], [], [], [], []
+        count = 0
+        for j, m in enumerate(group):
+            r, where = self.member_rows[m.name], self.offsets[m.name]
+            terms.append(np.arange(r.terms.start, r.terms.stop))
+            owners.append(np.full(len(r.index), j))
+            vectors.append(r.vectors)
+            starts.append(r.starts + count)
+            coords.append(np.repeat(np.arange(where.start, where.stop)[:, None], len(r.starts), 1))
+            rows.append(r.index[r.starts])
+            count += len(r.index)
+        return RowScatter(np.concatenate(terms), np.concatenate(owners), np.vstack(vectors),
+                          np.concatenate(starts), np.hstack(coords), np.concatenate(rows))
+
     @property
     def mass(self) -> BlockDiagonal:
-        return BlockDiagonal(tuple((self.offsets[m.name], m.mass_dot) for m in self.members))
+        return BlockDiagonal(tuple((b.where, b.mass_dot) for b in self.blocks))
 
     def mass_inverse(self) -> BlockDiagonal:
-        """Mr⁻¹, each member's factorised here (``mass_solver``)."""
-        return BlockDiagonal(tuple((self.offsets[m.name], m.mass_solver()) for m in self.members))
+        """Mr⁻¹, each block's factorised here (``mass_solver``)."""
+        return BlockDiagonal(tuple((b.where, b.mass_solver()) for b in self.blocks))
 
     @property
     def total_mass_kg(self) -> float:
@@ -115,12 +140,26 @@ class Assembly:
         """Each member's coordinates as rows of 3 (views of q)."""
         return {name: q[where].reshape(-1, 3) for name, where in self.offsets.items()}
 
+    @cached_property
+    def _kept_index(self) -> np.ndarray:
+        """Where each kept row is in the joints' rows stacked joint after joint."""
+        starts = np.cumsum([0] + [len(row.axes) for row in self.joints])
+        return np.array([starts[j] + k for j, k in self.kept], dtype=int)
+
     def _kept(self, per_joint: list[np.ndarray]) -> np.ndarray:
-        return np.array([per_joint[j][k] for j, k in self.kept]).reshape(len(self.kept))
+        stacked = np.concatenate(per_joint) if per_joint else np.zeros(0)
+        return stacked[self._kept_index]
+
+    @cached_property
+    def _moving(self) -> bool:
+        """Whether a joint's path moves its rows' targets (``_prescribed``)."""
+        return any(_prescribed(row) for row in self.joints)
 
     def targets(self, t: float) -> np.ndarray:
         """d(t) with g = C q − d(t), for linear rows (:attr:`constant`): the start values moved
         by the paths."""
+        if not self._moving:
+            return self.start_values
         return self.start_values + self._kept([row.moved(t) for row in self.joints])
 
     def residual(self, q: np.ndarray, t: float) -> np.ndarray:
@@ -148,20 +187,39 @@ class Assembly:
             return np.zeros(0)
         return self.dropped_values_at(q, t) - self.dropped_values
 
-    def directions(self, q: np.ndarray, t: float) -> dict[str, np.ndarray]:
-        """Each member's rows' directions u_i (k × 3), in :class:`MemberRows` order."""
+    @cached_property
+    def _term_index(self) -> np.ndarray:
+        """Where each member's row terms (``MemberRows.entries``, member after member) are in
+        the joints' directions stacked joint after joint, term after term."""
+        base, at = {}, 0
+        for j, row in enumerate(self.joints):
+            for term in range(len(row.terms)):
+                base[j, term] = at
+                at += len(row.axes)
+        return np.array([base[j, term] + k for rows in self.member_rows.values()
+                         for j, term, k in rows.entries], dtype=int)
+
+    def _directions(self, q: np.ndarray, t: float) -> np.ndarray:
         parts = self.parts(q)
-        turned = [row.directions(parts, t) for row in self.joints]
-        return {name: np.array([turned[j][term][k] for j, term, k in rows.entries]
-                               ).reshape(len(rows.entries), 3)
-                for name, rows in self.member_rows.items()}
+        stacked = [u for row in self.joints for u in row.directions(parts, t)]
+        return (np.concatenate(stacked) if stacked else np.zeros((0, 3)))[self._term_index]
+
+    @cached_property
+    def _fixed_directions(self) -> np.ndarray:
+        return self._directions(self.q_start, 0.0)
+
+    def directions(self, q: np.ndarray, t: float) -> np.ndarray:
+        """Every member's rows' directions u_i (terms × 3): member after member, each in its
+        :class:`MemberRows` order (``terms``); formed once when C is constant."""
+        return self._fixed_directions if self.constant else self._directions(q, t)
 
     def jacobian(self, q: np.ndarray, t: float) -> np.ndarray:
         """C(q, t) (m × N), dense."""
         C = np.zeros((self.count, self.dofs))
-        for name, u in self.directions(q, t).items():
-            rows = self.member_rows[name]
+        directions = self.directions(q, t)
+        for name, rows in self.member_rows.items():
             if len(rows.index):           # the blocks of one row summed (reduceat, not add.at)
+                u = directions[rows.terms]
                 block = (rows.vectors[:, :, None] * u[:, None, :]).reshape(len(u), -1)
                 starts = rows.starts
                 C[rows.index[starts], self.offsets[name]] += np.add.reduceat(block, starts, axis=0)
@@ -244,7 +302,7 @@ def _build(members: tuple[Member, ...], offsets: dict[str, slice], joints: tuple
     for i, (j, k) in enumerate(kept):
         for t, term in enumerate(joints[j].terms):
             parts[term.member].append((i, term.vectors[k], (j, t, k)))
-    member_rows = {}
+    member_rows, at = {}, 0
     for m in members:
         rows = parts[m.name]
         width = m.body.field_count if isinstance(m, Flexible) else 1
@@ -252,7 +310,9 @@ def _build(members: tuple[Member, ...], offsets: dict[str, slice], joints: tuple
         member_rows[m.name] = MemberRows(index,
                                          np.array([r[1] for r in rows]).reshape(len(rows), width),
                                          tuple(r[2] for r in rows),
-                                         np.flatnonzero(np.diff(index, prepend=-1)))
+                                         np.flatnonzero(np.diff(index, prepend=-1)),
+                                         slice(at, at + len(rows)))
+        at += len(rows)
     g = np.zeros(3) if gravity is None else checks.vector("gravity (m/s²)", gravity)
     built = Assembly(members=tuple(members), offsets=offsets, joints=tuple(joints), kept=kept,
                      rows=(), dropped=(), q_start=q_start, gravity_force=_gravity(members, g),

@@ -33,6 +33,7 @@ from gcms_fenicsx.dynamics.stepping.errors import IntegrationError, SingularMatr
 from gcms_fenicsx.dynamics.stepping.state import State
 from gcms_fenicsx.dynamics.system import checks
 from gcms_fenicsx.dynamics.system.assembly import Assembly, BlockDiagonal
+from gcms_fenicsx.dynamics.system.blocks import Block
 from gcms_fenicsx.numerics.rotation import InvertedBodyError
 
 #: t ↦ external force on the assembly's coordinates (N,), besides gravity (gas forces on
@@ -73,34 +74,34 @@ class AssemblyStepper:
         p = AlphaParameters.from_rho_inf(settings.rho_inf)
         beta_p, _ = newton_coefficients(p, self.h)
         self.predictor, self.update = step_matrices(p, self.h)
-        self.solvers = [(assembly.offsets[m.name], m, self._iteration(m, beta_p))
-                        for m in assembly.members]
+        self.solvers = [(block, self._iteration(block, beta_p)) for block in assembly.blocks]
         self.mass = assembly.mass
         self.C = assembly.matrix if assembly.constant else None
         self.tolerance_m = settings.tolerance * assembly.size_m
 
-    def _iteration(self, member: Any, beta_p: float) -> Any:
+    def _iteration(self, block: Block, beta_p: float) -> Any:
         """The member's Newton solves; a singular S₀ = β' Mr + Kr explained: β' = O(1/h²) makes
         it Mr's scale for any sane h, so it is singular when h is far too large for the member
         (its Mr and Kr are then of different orders, Kr's near-zero rigid part decides) or when
         its Mr is."""
         try:
-            return member.iteration(beta_p, self.assembly.member_rows[member.name].vectors)
+            return block.iteration(beta_p)
         except SingularMatrixError as exc:
+            names = ", ".join(repr(m.name) for m in block.members)
             raise IntegrationError(
-                f"member {member.name!r}: its iteration matrix β' Mr + Kr is singular "
+                f"member {names}: its iteration matrix β' Mr + Kr is singular "
                 f"({exc.numbers}) at time_step_s = {self.h:g} s: the step is far too large for "
                 "the member (a step in µs given in s?), or its reduced mass matrix is singular",
                 0.0) from exc
 
     def internal(self, q: np.ndarray) -> tuple[np.ndarray, list[Any]]:
-        """f_int(q) (N,) and each member's elastic state (None for a point mass)."""
+        """f_int(q) (N,) and each block's elastic state (None for a point mass)."""
         f = np.zeros_like(q)
         states = []
-        for where, member, _ in self.solvers:
-            state = member.state(q[where])
+        for block, _ in self.solvers:
+            state = block.state(q[block.where])
             if state is not None:
-                f[where] = state.force
+                f[block.where] = state.force
             states.append(state)
         return f, states
 
@@ -111,20 +112,18 @@ class AssemblyStepper:
 
     def linearise(self, states: list[Any], q: np.ndarray, t: float
                   ) -> tuple[BlockDiagonal, np.ndarray]:
-        """S⁻¹ (block by block) and W = S⁻¹ Cᵀ at the members' ``states`` and (q, t) (module
+        """S⁻¹ (block by block) and W = S⁻¹ Cᵀ at the blocks' ``states`` and (q, t) (module
         docstring)."""
         W = np.zeros((len(q), self.assembly.count))
-        blocks = []
+        solves = []
         directions = self.assembly.directions(q, t)
-        for (where, member, iteration), state in zip(self.solvers, states):
+        for (block, iteration), state in zip(self.solvers, states):
             at = iteration(state)
-            blocks.append((where, at.solve))
-            rows = self.assembly.member_rows[member.name]
-            if len(rows.index):
-                columns = at.rows(directions[member.name])
-                for column, i in enumerate(rows.index):
-                    W[where, i] += columns[:, column]
-        return BlockDiagonal(tuple(blocks)), W
+            solves.append((block.where, at.solve))
+            rows = block.scatter
+            if len(rows.terms):
+                rows.add_to(W, at.rows(directions[rows.terms]))
+        return BlockDiagonal(tuple(solves)), W
 
     def step(self, s: State) -> tuple[State, list[Any], int]:
         """Advance one step h (module docstring): (the state, the members' elastic states at
