@@ -391,6 +391,21 @@ def test_a_system_study_refuses_what_it_cannot_run(changes, where, says, tmp_pat
     assert where in str(caught.value) and says in str(caught.value), str(caught.value)
 
 
+@pytest.mark.parametrize("key, value, allowed", [("kind", "rotor", '"full" or "auto"'),
+                                                ("shapes", "static", '"modes"')])
+def test_a_body_of_a_system_study_refuses_a_basis_the_assembly_cannot_step(key, value, allowed):
+    """The crank train's crankshaft asking for the rotor basis or the static shapes: refused
+    naming the body, the key and what is allowed (before, the run stepped the full basis of
+    its modes and said nothing)."""
+    raw = tomllib.loads((REPO / "workflows" / "crank_train.toml").read_text())
+    raw["bodies"]["crankshaft"]["basis"][key] = value
+    with pytest.raises(ConfigError) as caught:
+        parse_system(raw, "train", REPO / "workflows")
+    said = str(caught.value)
+    assert "body 'crankshaft'" in said and f"[basis] {key} = {value!r}" in said, said
+    assert allowed in said and "system study steps in the full basis" in said, said
+
+
 def test_joints_that_do_not_meet_are_refused_naming_them(tmp_path):
     """A joint whose points start apart (the conrod placed 1 cm off its crank pin) is refused
     before any step, naming the joint and the gap (``assemble``)."""

@@ -46,10 +46,30 @@ def body_scene(joints: Sequence[Any], body: Any, end_time_s: float, time_step_s:
             **({"elasticity": body.elasticity} if body.elasticity != "corotated" else {})}
 
 
+#: What a system study's body may not ask of its ``[basis]``: the rotor basis and the static
+#: shapes are made for one body held by its scene's joints (``dynamics.bases``); the
+#: assembly's step takes a body in the full basis of its modes (``kind = "auto"`` is that).
+NOT_IN_SYSTEMS = {"kind": ("rotor", '"full" or "auto" (which is "full" here)'),
+                  "shapes": ("static", '"modes"')}
+
+
+def _check_basis(body: Any) -> None:
+    """ConfigError for a ``[basis]`` the assembly's step does not take (:data:`NOT_IN_SYSTEMS`),
+    naming the body and where its study is."""
+    basis = body.tables.get("basis")
+    for key, (refused, allowed) in NOT_IN_SYSTEMS.items():
+        if isinstance(basis, dict) and basis.get(key) == refused:
+            raise ConfigError(f"body {body.name!r} ({body.source}): [basis] {key}", refused,
+                              f"{allowed}: a body of a system study steps in the full basis of "
+                              "its modes (the rotor basis and the static shapes are built for "
+                              "one-body studies only)")
+
+
 def body_study(body: Any, scene: dict[str, Any] | None) -> tuple[StudyConfig, str]:
     """The flexible ``body``'s study parsed with ``scene`` added, and its model key (the digest
     of its tables and scene); a ConfigError in it names the body."""
     tables = dict(body.tables) | ({"scene": scene} if scene else {})
+    _check_basis(body)
     try:
         study = parse_config(tables, body.source)
     except ConfigError as exc:
