@@ -7,18 +7,20 @@ C(q, t) = ∂g/∂q; the rows implied by earlier ones at the start are found in 
 metric (``joints.independent_rows``, with Mr⁻¹ applied block by block) and dropped, so the
 Newton matrix's constraint block is regular; :attr:`Assembly.dropped` reports them. For
 linear rows (C constant) what is implied at the start is implied always; for driven and
-bilinear rows the test is of the start.
+bilinear rows the test is of the start. The linear joints' rows of C and their directions are
+formed once; a step forms only the other joints' (and their g from their values, the linear
+rows' as C q − d(t)).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 from functools import cached_property
-from typing import Any, NamedTuple, Sequence
+from typing import NamedTuple, Sequence
 
 import numpy as np
 
 from gcms_fenicsx.dynamics.constraints.joints import RowInfo, independent_rows
-from gcms_fenicsx.dynamics.system.blocks import Block, RowScatter, group_blocks
+from gcms_fenicsx.dynamics.system.blocks import Block, BlockDiagonal, RowScatter, group_blocks
 from gcms_fenicsx.dynamics.system.members import Flexible, Member
 from gcms_fenicsx.dynamics.system.rigid import Rigid, rigidity
 from gcms_fenicsx.dynamics.system import checks
@@ -27,22 +29,6 @@ from gcms_fenicsx.dynamics.system.rows import DrivenRow, FixedPoint, LinearRow, 
 
 class AssemblyError(ValueError):
     """An assembly that cannot be built: which member or joint, and why."""
-
-
-@dataclass(frozen=True)
-class BlockDiagonal:
-    """diag(A_1, …, A_B) applied block by block to (N,) or (N, k) arrays by ``@``/``dot``:
-    ``blocks`` (slice, the block's product)."""
-
-    blocks: tuple[tuple[slice, Any], ...]
-
-    def dot(self, x: np.ndarray) -> np.ndarray:
-        out = np.empty_like(x, dtype=float)
-        for where, product in self.blocks:
-            out[where] = product(x[where])
-        return out
-
-    __matmul__ = dot
 
 
 class MemberRows(NamedTuple):
@@ -152,20 +138,37 @@ class Assembly:
 
     @cached_property
     def _moving(self) -> bool:
-        """Whether a joint's path moves its rows' targets (``_prescribed``)."""
-        return any(_prescribed(row) for row in self.joints)
+        """Whether a linear joint's path moves its rows' targets."""
+        return any(isinstance(row, LinearRow) and _prescribed(row) for row in self.joints)
 
     def targets(self, t: float) -> np.ndarray:
-        """d(t) with g = C q − d(t), for linear rows (:attr:`constant`): the start values moved
-        by the paths."""
+        """d(t) with g = C q − d(t) for the rows of the linear joints: the start values moved
+        by the paths (the start values alone for the other rows)."""
         if not self._moving:
             return self.start_values
-        return self.start_values + self._kept([row.moved(t) for row in self.joints])
+        return self.start_values + self._kept([
+            row.moved(t) if isinstance(row, LinearRow) else np.zeros(len(row.axes))
+            for row in self.joints])
+
+    @cached_property
+    def _varying_rows(self) -> tuple[tuple[int, ...], np.ndarray, np.ndarray]:
+        """The joints that are not linear, the kept rows that are theirs, and where each is
+        among their rows stacked joint after joint."""
+        joints = tuple(j for j, row in enumerate(self.joints) if not row.constant)
+        starts = dict(zip(joints, np.cumsum([0] + [len(self.joints[j].axes) for j in joints])))
+        chosen = [(i, starts[j] + k) for i, (j, k) in enumerate(self.kept) if j in starts]
+        return (joints, np.array([i for i, _ in chosen], dtype=int),
+                np.array([s for _, s in chosen], dtype=int))
 
     def residual(self, q: np.ndarray, t: float) -> np.ndarray:
-        """g(q, t) of the kept rows."""
-        parts = self.parts(q)
-        return self._kept([row.value(parts, t) for row in self.joints]) - self.start_values
+        """g(q, t) of the kept rows: C q − d(t) for the linear joints' rows (their C formed
+        once), the other joints' rows from their values."""
+        g = self._fixed_jacobian.dot(q) - self.targets(t)
+        joints, rows, index = self._varying_rows
+        if joints:
+            parts = self.parts(q)
+            g[rows] += np.concatenate([self.joints[j].value(parts, t) for j in joints])[index]
+        return g
 
     def rates(self, q: np.ndarray, v: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
         """(∂g/∂t, γ) of the kept rows (``rows.Row.rates``)."""
@@ -187,43 +190,103 @@ class Assembly:
             return np.zeros(0)
         return self.dropped_values_at(q, t) - self.dropped_values
 
-    @cached_property
-    def _term_index(self) -> np.ndarray:
-        """Where each member's row terms (``MemberRows.entries``, member after member) are in
-        the joints' directions stacked joint after joint, term after term."""
+    def _stacked(self, joints: Sequence[int]) -> dict[tuple[int, int], int]:
+        """Where each term of ``joints`` starts in their directions stacked joint after joint,
+        term after term: {(joint, term): position}."""
         base, at = {}, 0
-        for j, row in enumerate(self.joints):
-            for term in range(len(row.terms)):
+        for j in joints:
+            for term in range(len(self.joints[j].terms)):
                 base[j, term] = at
-                at += len(row.axes)
-        return np.array([base[j, term] + k for rows in self.member_rows.values()
-                         for j, term, k in rows.entries], dtype=int)
+                at += len(self.joints[j].axes)
+        return base
 
-    def _directions(self, q: np.ndarray, t: float) -> np.ndarray:
-        parts = self.parts(q)
-        stacked = [u for row in self.joints for u in row.directions(parts, t)]
-        return (np.concatenate(stacked) if stacked else np.zeros((0, 3)))[self._term_index]
+    @cached_property
+    def _entries(self) -> tuple[tuple[int, int, int], ...]:
+        """Every member's row terms, member after member: the order of :meth:`directions`."""
+        return tuple(e for rows in self.member_rows.values() for e in rows.entries)
 
     @cached_property
     def _fixed_directions(self) -> np.ndarray:
-        return self._directions(self.q_start, 0.0)
+        base = self._stacked(range(len(self.joints)))
+        parts = self.parts(self.q_start)
+        stacked = [u for row in self.joints for u in row.directions(parts, 0.0)]
+        return (np.concatenate(stacked) if stacked else np.zeros((0, 3)))[
+            np.array([base[j, term] + k for j, term, k in self._entries], dtype=int)]
+
+    @cached_property
+    def _varying(self) -> tuple[tuple[int, ...], np.ndarray, np.ndarray]:
+        """The joints whose directions change with q or t, where their terms are among the
+        directions, and where each is in theirs stacked (:meth:`_stacked`)."""
+        joints = tuple(j for j, row in enumerate(self.joints) if not row.constant)
+        base = self._stacked(joints)
+        chosen = [(p, base[j, term] + k) for p, (j, term, k) in enumerate(self._entries)
+                  if (j, term) in base]
+        return (joints, np.array([p for p, _ in chosen], dtype=int),
+                np.array([i for _, i in chosen], dtype=int))
 
     def directions(self, q: np.ndarray, t: float) -> np.ndarray:
         """Every member's rows' directions u_i (terms × 3): member after member, each in its
-        :class:`MemberRows` order (``terms``); formed once when C is constant."""
-        return self._fixed_directions if self.constant else self._directions(q, t)
+        :class:`MemberRows` order (``terms``); those of constant rows formed once."""
+        if self.constant:
+            return self._fixed_directions
+        joints, positions, index = self._varying
+        parts = self.parts(q)
+        D = self._fixed_directions.copy()
+        D[positions] = np.concatenate([u for j in joints
+                                       for u in self.joints[j].directions(parts, t)])[index]
+        return D
+
+    def _row_parts(self, constant: bool) -> tuple[RowPart, ...]:
+        """Each member's terms of the rows of constant (or of varying) joints, as RowParts."""
+        made = []
+        for name, rows in self.member_rows.items():
+            chosen = np.array([self.joints[j].constant == constant for j, _, _ in rows.entries],
+                              dtype=bool)
+            if chosen.any():
+                index = rows.index[chosen]
+                starts = np.flatnonzero(np.diff(index, prepend=-1))
+                made.append(RowPart(self.offsets[name], index[starts], rows.vectors[chosen],
+                                    np.arange(rows.terms.start, rows.terms.stop)[chosen],
+                                    starts))
+        return tuple(made)
+
+    @cached_property
+    def _fixed_jacobian(self) -> np.ndarray:
+        """The rows of the constant joints in C (the others zero), formed once."""
+        C = np.zeros((self.count, self.dofs))
+        for part in self._row_parts(True):
+            part.add_to(C, self._fixed_directions)
+        return C
+
+    @cached_property
+    def _varying_parts(self) -> tuple[RowPart, ...]:
+        return self._row_parts(False)
 
     def jacobian(self, q: np.ndarray, t: float) -> np.ndarray:
-        """C(q, t) (m × N), dense."""
-        C = np.zeros((self.count, self.dofs))
-        directions = self.directions(q, t)
-        for name, rows in self.member_rows.items():
-            if len(rows.index):           # the blocks of one row summed (reduceat, not add.at)
-                u = directions[rows.terms]
-                block = (rows.vectors[:, :, None] * u[:, None, :]).reshape(len(u), -1)
-                starts = rows.starts
-                C[rows.index[starts], self.offsets[name]] += np.add.reduceat(block, starts, axis=0)
+        """C(q, t) (m × N), dense: the constant joints' rows formed once, the others here."""
+        C = self._fixed_jacobian.copy()
+        if not self.constant:
+            directions = self.directions(q, t)
+            for part in self._varying_parts:
+                part.add_to(C, directions)
         return C
+
+
+class RowPart(NamedTuple):
+    """Some of a member's row terms (``where`` its coordinates): term i has the Jacobian block
+    kron(v_i, u_i) (``vectors``), u_i at ``terms`` among the directions; the blocks of one row
+    are summed (``np.add.reduceat`` at ``starts``, not add.at) into row ``rows[j]``."""
+
+    where: slice
+    rows: np.ndarray
+    vectors: np.ndarray
+    terms: np.ndarray
+    starts: np.ndarray
+
+    def add_to(self, C: np.ndarray, directions: np.ndarray) -> None:
+        u = directions[self.terms]
+        block = (self.vectors[:, :, None] * u[:, None, :]).reshape(len(u), -1)
+        C[self.rows, self.where] += np.add.reduceat(block, self.starts, axis=0)
 
 
 def assemble(members: tuple[Member, ...], joints: tuple[Row, ...],

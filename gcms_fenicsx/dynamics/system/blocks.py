@@ -24,6 +24,22 @@ from gcms_fenicsx.dynamics.system.members import Flexible, Iteration, Member
 Where = slice | np.ndarray
 
 
+@dataclass(frozen=True)
+class BlockDiagonal:
+    """diag(A_1, …, A_B) applied block by block to (N,) or (N, k) arrays by ``@``/``dot``:
+    ``blocks`` (slice, the block's product)."""
+
+    blocks: tuple[tuple[slice, Any], ...]
+
+    def dot(self, x: np.ndarray) -> np.ndarray:
+        out = np.empty_like(x, dtype=float)
+        for where, product in self.blocks:
+            out[where] = product(x[where])
+        return out
+
+    __matmul__ = dot
+
+
 class RowScatter(NamedTuple):
     """A block's row terms: ``terms`` index them in ``Assembly.directions``' array, ``owners``
     give each term's member (its position in the block), ``vectors`` its v_i (terms × fields);

@@ -32,8 +32,8 @@ from gcms_fenicsx.dynamics.stepping.alpha import AlphaParameters, newton_coeffic
 from gcms_fenicsx.dynamics.stepping.errors import IntegrationError, SingularMatrixError
 from gcms_fenicsx.dynamics.stepping.state import State
 from gcms_fenicsx.dynamics.system import checks
-from gcms_fenicsx.dynamics.system.assembly import Assembly, BlockDiagonal
-from gcms_fenicsx.dynamics.system.blocks import Block
+from gcms_fenicsx.dynamics.system.assembly import Assembly
+from gcms_fenicsx.dynamics.system.blocks import Block, BlockDiagonal
 from gcms_fenicsx.numerics.rotation import InvertedBodyError
 
 #: t ↦ external force on the assembly's coordinates (N,), besides gravity (gas forces on
