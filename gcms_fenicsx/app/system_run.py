@@ -28,7 +28,7 @@ from gcms_fenicsx.config.table import ConfigError
 from gcms_fenicsx.files.outputs import atomic_file
 from gcms_fenicsx.files.reduced_model import ReducedModel
 from gcms_fenicsx.runtime.errors import ComputationFailed
-from gcms_fenicsx.runtime.progress import Progress
+from gcms_fenicsx.runtime.progress import Progress, quiet
 
 SYSTEM_FILES = ("system.h5", "summary.json", "system_joints.png")
 BODIES_FOLDER = "bodies"
@@ -52,17 +52,34 @@ def load_system(path: Path, raw: dict[str, Any]) -> SystemConfig:
 
 
 def members(cfg: SystemConfig, models: dict[str, ReducedModel],
-            full_order: dict[str, Any] | None = None) -> tuple:
+            full_order: dict[str, Any] | None = None, progress: Progress = quiet) -> tuple:
     """The assembly's members, placed: flexible bodies of their reduced models with their
     elastic law (co-rotated, or Saint Venant–Kirchhoff of the model's coefficients; or, for a
     name in ``full_order``, its full-order Body, ``references.full_order``: F = I, a sparse LU
-    of its iteration matrix), rigid bodies, point masses."""
+    of its iteration matrix) in the basis its ``[basis] kind`` asks for (the rotor basis:
+    ``rotor_member``), rigid bodies, point masses."""
     from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
     from gcms_fenicsx.dynamics.run.simulate import elastic_law
     from gcms_fenicsx.dynamics.system.members import Flexible, PointMass, placed_coordinates
     from gcms_fenicsx.dynamics.system.rigid import rigid_body, rigid_member, rigid_twin
 
     bodies: dict[int, Any] = {}       # one Body per reduced model, however many share it
+    rotors: dict[int, Any] = {}       # and one rotor body
+
+    def in_rotor_basis(spec: FlexibleSpec, model: ReducedModel, body: Any) -> Any:
+        """The rotor body of ``body`` when its study asks for it (and its scene allows), else
+        None (``run_basis.in_basis``)."""
+        from gcms_fenicsx.dynamics.bases.run_basis import in_basis
+        from gcms_fenicsx.dynamics.bodies.rotor import RotorBody
+
+        plan = spec.study.plan.scene
+        if plan is None or plan.basis == "full" or spec.elasticity != "corotated":
+            return None
+        if id(model) not in rotors:
+            made = in_basis(model, body, plan.scene, plan.basis, plan.attachment,
+                            lambda line: progress(f"{spec.name}: {line}"))
+            rotors[id(model)] = made if isinstance(made, RotorBody) else None
+        return rotors[id(model)]
 
     def member(spec: Any, x0: np.ndarray) -> Any:
         R0 = spec.placement.matrix
@@ -81,6 +98,10 @@ def members(cfg: SystemConfig, models: dict[str, ReducedModel],
             body = bodies[id(model)]
             if spec.as_rigid:
                 return rigid_member(spec.name, rigid_twin(body), R0, x0)
+            rotor = in_rotor_basis(spec, model, body)
+            if rotor is not None:
+                from gcms_fenicsx.dynamics.system.rotor_member import rotor_member
+                return rotor_member(spec.name, rotor, R0, x0)
             law = (elastic_law(model, body, spec.study.scene) if spec.elasticity == "svk"
                    else None)                                 # None: the co-rotated law
             return Flexible(spec.name, body, placed_coordinates(body, R0, x0), law=law)
@@ -138,18 +159,19 @@ def start_velocity(cfg: SystemConfig, made: tuple) -> np.ndarray:
     parts = []
     for spec, member in zip(cfg.bodies, made):
         v, w = np.array(spec.placement.velocity), np.array(spec.placement.angular_velocity)
-        parts.append(v if isinstance(spec, PointMassSpec)
-                     else member.body.rigid_velocity(member.q_start, v, w))
+        parts.append(v if isinstance(spec, PointMassSpec) else member.rigid_velocity(v, w))
     return np.concatenate(parts)
 
 
 def build_system(cfg: SystemConfig, models: dict[str, ReducedModel],
-                 full_order: dict[str, Any] | None = None) -> tuple[tuple, Any, Any]:
-    """(members, assembly, stepper) of the study (:func:`members`, ``full_order`` as there)."""
+                 full_order: dict[str, Any] | None = None, progress: Progress = quiet
+                 ) -> tuple[tuple, Any, Any]:
+    """(members, assembly, stepper) of the study (:func:`members`, ``full_order`` and
+    ``progress`` as there)."""
     from gcms_fenicsx.dynamics.system.assembly import AssemblyError, assemble
     from gcms_fenicsx.dynamics.system.stepper import AssemblyStepper, StepSettings
 
-    made = members(cfg, models, full_order)
+    made = members(cfg, models, full_order, progress)
     by_name = {m.name: m for m in made}
     rows = tuple(r for spec in cfg.joints for r in joint_rows(spec, by_name))
     try:
@@ -185,7 +207,7 @@ def simulate_system(cfg: SystemConfig, models: dict[str, ReducedModel], folder: 
     from gcms_fenicsx.dynamics.system.stepper import initial_state
 
     try:
-        made, assembly, stepper = build_system(cfg, models)
+        made, assembly, stepper = build_system(cfg, models, progress=progress)
         progress(f"system: {len(made)} bodies, {assembly.dofs} coordinates, {assembly.count} "
                  f"joint rows ({len(assembly.dropped)} implied by others, dropped); stepping "
                  f"to {cfg.end_time_s:g} s at {cfg.time_step_s:g} s")
@@ -205,8 +227,9 @@ def simulate_system(cfg: SystemConfig, models: dict[str, ReducedModel], folder: 
 
 
 def body_probes(assembly: Any) -> dict[str, Any]:
-    """Each member's coordinates, recorded as ``bodies/NAME/q``."""
-    return {m.name: (lambda s, where=assembly.offsets[m.name]: s.q[where])
+    """Each member's coordinates, recorded as ``bodies/NAME/q``: its body's GCMS coordinates
+    (B p of a member in the rotor basis)."""
+    return {m.name: (lambda s, m=m, where=assembly.offsets[m.name]: m.fields(s.q[where]).ravel())
             for m in assembly.members}
 
 
@@ -322,7 +345,9 @@ def system_summary(cfg: SystemConfig, assembly: Any, run: Any, forces: dict) -> 
         "energy_drift_rel": run.energy_drift_rel, "velocity_change_rel": run.velocity_change,
         "coordinates": assembly.dofs,
         "bodies": {m.name: {"kind": "rigid" if getattr(spec, "as_rigid", False) else spec.kind,
-                            "coordinates": m.dofs, "mass_kg": m.mass_kg}
+                            "coordinates": m.dofs, "mass_kg": m.mass_kg,
+                            **({"basis": "rotor"} if getattr(m, "coordinates_map", None)
+                               is not None else {})}
                    for spec, m in zip(cfg.bodies, assembly.members)},
         "joints": {j.name: {"type": j.type, "body": j.body, "to_body": j.to_body,
                             **peak.get(j.name, {})} for j in cfg.joints},

@@ -46,11 +46,10 @@ def body_scene(joints: Sequence[Any], body: Any, end_time_s: float, time_step_s:
             **({"elasticity": body.elasticity} if body.elasticity != "corotated" else {})}
 
 
-#: What a system study's body may not ask of its ``[basis]``: the rotor basis and the static
-#: shapes are made for one body held by its scene's joints (``dynamics.bases``); the
-#: assembly's step takes a body in the full basis of its modes (``kind = "auto"`` is that).
-NOT_IN_SYSTEMS = {"kind": ("rotor", '"full" or "auto" (which is "full" here)'),
-                  "shapes": ("static", '"modes"')}
+#: What a system study's body may not ask of its ``[basis]``: the static shapes are the
+#: responses of one body held by its scene's joints (``dynamics.bases``), and the scene a
+#: system implies holds every group its joints use, the groups other bodies load as well.
+NOT_IN_SYSTEMS = {"shapes": ("static", '"modes"')}
 
 
 def _check_basis(body: Any) -> None:
@@ -60,9 +59,10 @@ def _check_basis(body: Any) -> None:
     for key, (refused, allowed) in NOT_IN_SYSTEMS.items():
         if isinstance(basis, dict) and basis.get(key) == refused:
             raise ConfigError(f"body {body.name!r} ({body.source}): [basis] {key}", refused,
-                              f"{allowed}: a body of a system study steps in the full basis of "
-                              "its modes (the rotor basis and the static shapes are built for "
-                              "one-body studies only)")
+                              f"{allowed}: a body of a system study deforms along its modes "
+                              "(the static shapes are built for one-body studies only: they "
+                              "need the body held by its joints to the ground and loaded at "
+                              "the others)")
 
 
 def body_study(body: Any, scene: dict[str, Any] | None) -> tuple[StudyConfig, str]:

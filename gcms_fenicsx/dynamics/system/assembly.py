@@ -124,7 +124,7 @@ class Assembly:
 
     def parts(self, q: np.ndarray) -> Parts:
         """Each member's coordinates as rows of 3 (views of q)."""
-        return {name: q[where].reshape(-1, 3) for name, where in self.offsets.items()}
+        return {m.name: m.fields(q[self.offsets[m.name]]) for m in self.members}
 
     @cached_property
     def _kept_index(self) -> np.ndarray:
@@ -159,6 +159,12 @@ class Assembly:
         chosen = [(i, starts[j] + k) for i, (j, k) in enumerate(self.kept) if j in starts]
         return (joints, np.array([i for i, _ in chosen], dtype=int),
                 np.array([s for _, s in chosen], dtype=int))
+
+    def defined_residual(self, q: np.ndarray, t: float) -> np.ndarray:
+        """g(q, t) of the kept rows from every joint's values, as the rows define it (what
+        :meth:`residual` forms faster, and the finite differences of C are taken of)."""
+        parts = self.parts(q)
+        return self._kept([row.value(parts, t) for row in self.joints]) - self.start_values
 
     def residual(self, q: np.ndarray, t: float) -> np.ndarray:
         """g(q, t) of the kept rows: C q − d(t) for the linear joints' rows (their C formed
@@ -247,7 +253,7 @@ class Assembly:
                 starts = np.flatnonzero(np.diff(index, prepend=-1))
                 made.append(RowPart(self.offsets[name], index[starts], rows.vectors[chosen],
                                     np.arange(rows.terms.start, rows.terms.stop)[chosen],
-                                    starts))
+                                    starts, getattr(self.member(name), "coordinates_map", None)))
         return tuple(made)
 
     @cached_property
@@ -274,19 +280,22 @@ class Assembly:
 
 class RowPart(NamedTuple):
     """Some of a member's row terms (``where`` its coordinates): term i has the Jacobian block
-    kron(v_i, u_i) (``vectors``), u_i at ``terms`` among the directions; the blocks of one row
-    are summed (``np.add.reduceat`` at ``starts``, not add.at) into row ``rows[j]``."""
+    kron(v_i, u_i) (``vectors``) over its body's GCMS coordinates (times ``basis`` B for a
+    member in the rotor basis, q = B x), u_i at ``terms`` among the directions; the blocks of
+    one row are summed (``np.add.reduceat`` at ``starts``, not add.at) into row ``rows[j]``."""
 
     where: slice
     rows: np.ndarray
     vectors: np.ndarray
     terms: np.ndarray
     starts: np.ndarray
+    basis: np.ndarray | None = None   # B of a member whose body's coordinates are B x
 
     def add_to(self, C: np.ndarray, directions: np.ndarray) -> None:
         u = directions[self.terms]
         block = (self.vectors[:, :, None] * u[:, None, :]).reshape(len(u), -1)
-        C[self.rows, self.where] += np.add.reduceat(block, self.starts, axis=0)
+        summed = np.add.reduceat(block, self.starts, axis=0)
+        C[self.rows, self.where] += summed if self.basis is None else summed @ self.basis
 
 
 def assemble(members: tuple[Member, ...], joints: tuple[Row, ...],
@@ -345,7 +354,7 @@ GAP_TOLERANCE = 1e-6
 def _check_gaps(members: tuple[Member, ...], offsets: dict[str, slice],
                 joints: tuple[Row, ...], q_start: np.ndarray) -> None:
     """AssemblyError for a coincidence whose points (or point and path) do not start together."""
-    parts = {name: q_start[where].reshape(-1, 3) for name, where in offsets.items()}
+    parts = {m.name: m.fields(q_start[offsets[m.name]]) for m in members}
     tolerance = 1e-9 + GAP_TOLERANCE * max(m.size_m for m in members)
     for row in joints:
         if isinstance(row, LinearRow) and row.meets:
@@ -385,6 +394,5 @@ def _build(members: tuple[Member, ...], offsets: dict[str, slice], joints: tuple
 
 def _gravity(members: tuple[Member, ...], g: np.ndarray) -> np.ndarray:
     """f_g: each flexible member's generalized gravity force ``gravity @ g``, m g for a point."""
-    parts = [np.asarray(m.body.gravity @ g) if isinstance(m, Flexible) else m.mass * g
-             for m in members]
+    parts = [m.gravity_force(g) for m in members]
     return np.concatenate(parts)

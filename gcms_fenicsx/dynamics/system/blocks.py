@@ -159,7 +159,8 @@ def batch_key(member: Member) -> tuple | None:
     """What members must share to be stepped as one :class:`Batch`: the class, the body and
     the factorisation, with the co-rotated law on a dense body; None for a member that
     cannot be."""
-    if not isinstance(member, Flexible) or member.law is not None:
+    if not isinstance(member, Flexible) or member.law is not None or (
+            member.coordinates_map is not None):
         return None
     if member.factorize is not dense_factorization or not isinstance(
             member.body.projections.stiffness, np.ndarray):

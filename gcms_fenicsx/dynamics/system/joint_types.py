@@ -28,7 +28,7 @@ def point_of(member: Member, name: str | None) -> rows.Point:
 
 def start_of(member: Member, point: rows.Point) -> np.ndarray:
     """Where ``point`` of ``member`` is at the start (m)."""
-    return point.vector @ member.q_start.reshape(-1, 3)
+    return point.vector @ member.fields(member.q_start)
 
 
 def _held_rotation(joint: str, member: Member, group: str | None, axis: np.ndarray,

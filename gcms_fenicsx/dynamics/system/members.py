@@ -71,10 +71,27 @@ class Flexible:
     def mass_kg(self) -> float:
         return self.body.total_mass_kg
 
+    @property
+    def coordinates_map(self) -> np.ndarray | None:
+        """B with its body's GCMS coordinates q = B x (None: x is q)."""
+        return None
+
+    def fields(self, x: np.ndarray) -> np.ndarray:
+        """Its body's GCMS coordinates Q (fields × 3) at its coordinates x (or their rates)."""
+        return x.reshape(-1, 3)
+
     @cached_property
     def placement(self) -> np.ndarray:
         """R₀ of its placement: the frame polar(Qᵀ H) at ``q_start`` (I unless turned)."""
-        return polar(self.q_start.reshape(-1, 3).T @ self.body.affine).rotation
+        return polar(self.fields(self.q_start).T @ self.body.affine).rotation
+
+    def gravity_force(self, g: np.ndarray) -> np.ndarray:
+        """Its generalized gravity force for the acceleration g (m/s²)."""
+        return np.asarray(self.body.gravity @ g)
+
+    def rigid_velocity(self, velocity: np.ndarray, angular_velocity: np.ndarray) -> np.ndarray:
+        """Its q̇ at the start for the rigid velocity ẋ = v + ω × (x − c) (``Body``)."""
+        return self.body.rigid_velocity(self.q_start, velocity, angular_velocity)
 
     @property
     def size_m(self) -> float:
@@ -150,6 +167,13 @@ class PointMass:
     @property
     def size_m(self) -> float:
         return 0.0
+
+    def fields(self, x: np.ndarray) -> np.ndarray:
+        """Its position as one row (its "fields": h = [1])."""
+        return x.reshape(-1, 3)
+
+    def gravity_force(self, g: np.ndarray) -> np.ndarray:
+        return self.mass * g
 
     def mass_dot(self, x: np.ndarray) -> np.ndarray:
         return self.mass * x
