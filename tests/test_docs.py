@@ -293,6 +293,7 @@ def _parser_keys() -> dict[str, set[str]]:
     for name in ("bodies.NAME.rigid.points", "bodies.other.rigid.points"):
         read.pop(name, None)           # the bodies' own point names
     read["bodies.NAME.align"] = read.pop("bodies.other.align", set())
+    read["bodies.NAME.damping"] = read.pop("bodies.flexible.damping", set())
     for name in ("bodies.mass", "bodies.other", "bodies.flexible"):  # one table's keys
         read["bodies.NAME"] |= read.pop(name, set())
     read.pop("bodies", None)           # its keys are the bodies' names

@@ -57,7 +57,7 @@ def members(cfg: SystemConfig, models: dict[str, ReducedModel],
     elastic law (co-rotated, or Saint Venant–Kirchhoff of the model's coefficients; or, for a
     name in ``full_order``, its full-order Body, ``references.full_order``: F = I, a sparse LU
     of its iteration matrix) in the basis its ``[basis] kind`` asks for (the rotor basis:
-    ``rotor_member``), rigid bodies, point masses."""
+    ``rotor_member``) with its Rayleigh ``damping``, rigid bodies, point masses."""
     from gcms_fenicsx.dynamics.bodies.body import body_from_reduced
     from gcms_fenicsx.dynamics.run.simulate import elastic_law
     from gcms_fenicsx.dynamics.system.members import Flexible, PointMass, placed_coordinates
@@ -65,6 +65,10 @@ def members(cfg: SystemConfig, models: dict[str, ReducedModel],
 
     bodies: dict[int, Any] = {}       # one Body per reduced model, however many share it
     rotors: dict[int, Any] = {}       # and one rotor body
+
+    def damping(spec: FlexibleSpec) -> Any:
+        from gcms_fenicsx.dynamics.bodies.damping import RayleighDamping
+        return RayleighDamping(*spec.damping) if spec.damping != (0.0, 0.0) else None
 
     def in_rotor_basis(spec: FlexibleSpec, model: ReducedModel, body: Any) -> Any:
         """The rotor body of ``body`` when its study asks for it (and its scene allows), else
@@ -90,7 +94,7 @@ def members(cfg: SystemConfig, models: dict[str, ReducedModel],
             from gcms_fenicsx.references.full_order import sparse_factorization
             body = full_order[spec.name]
             return Flexible(spec.name, body, placed_coordinates(body, R0, x0),
-                            factorize=sparse_factorization)
+                            factorize=sparse_factorization, damping=damping(spec))
         if isinstance(spec, FlexibleSpec):
             model = models[spec.name]
             if id(model) not in bodies:
@@ -101,10 +105,11 @@ def members(cfg: SystemConfig, models: dict[str, ReducedModel],
             rotor = in_rotor_basis(spec, model, body)
             if rotor is not None:
                 from gcms_fenicsx.dynamics.system.rotor_member import rotor_member
-                return rotor_member(spec.name, rotor, R0, x0)
+                return rotor_member(spec.name, rotor, R0, x0, damping(spec))
             law = (elastic_law(model, body, spec.study.scene) if spec.elasticity == "svk"
                    else None)                                 # None: the co-rotated law
-            return Flexible(spec.name, body, placed_coordinates(body, R0, x0), law=law)
+            return Flexible(spec.name, body, placed_coordinates(body, R0, x0), law=law,
+                            damping=damping(spec))
         if isinstance(spec, RigidSpec):
             body = rigid_body(spec.mass_kg, np.array(spec.center_m),
                               np.array(spec.inertia_kgm2), spec.points)
@@ -261,8 +266,8 @@ def rigid_twin_study(cfg: SystemConfig) -> SystemConfig:
     properties (``as_rigid``): the assembly with its elasticity taken away."""
     from dataclasses import replace
 
-    return replace(cfg, bodies=tuple(replace(b, as_rigid=True) if isinstance(b, FlexibleSpec)
-                                     else b for b in cfg.bodies))
+    return replace(cfg, bodies=tuple(replace(b, as_rigid=True, damping=(0.0, 0.0))
+                                     if isinstance(b, FlexibleSpec) else b for b in cfg.bodies))
 
 
 def pressure_curve(engine: Any) -> Any:

@@ -72,6 +72,8 @@ class FlexibleSpec:
     as_rigid: bool = False
     #: its elastic law: "corotated" or "svk" (``[scene] elasticity`` of a one-body study)
     elasticity: str = "corotated"
+    #: Rayleigh damping (α in 1/s, β in s) of its co-rotated deformation rate
+    damping: tuple[float, float] = (0.0, 0.0)
     kind: str = field(default="flexible", init=False)
 
 
@@ -224,9 +226,22 @@ def _flexible(name: str, t: Table, raw: Mapping[str, Any], folder: Path) -> Flex
         inline, source = {k: v for k, v in study.items() if k != "scene"}, str(path)
     else:
         source = f"[{t.name}]"
-    return FlexibleSpec(name, inline, source, _placement(t),
-                        as_rigid=t.boolean("as_rigid", False),
-                        elasticity=t.choice("elasticity", ELASTICITIES, "corotated"))
+    as_rigid = t.boolean("as_rigid", False)
+    elasticity = t.choice("elasticity", ELASTICITIES, "corotated")
+    return FlexibleSpec(name, inline, source, _placement(t), as_rigid=as_rigid,
+                        elasticity=elasticity, damping=_damping(t, as_rigid, elasticity))
+
+
+def _damping(t: Table, as_rigid: bool, elasticity: str) -> tuple[float, float]:
+    """``damping = {alpha = …, beta = …}`` of a flexible body (as ``[scene.damping]``)."""
+    d = Table(f"{t.name}.damping", t.subtable("damping"))
+    damping = (d.number("alpha", 0.0, low=0.0), d.number("beta", 0.0, low=0.0))
+    d.finish()
+    if damping != (0.0, 0.0) and (as_rigid or elasticity != "corotated"):
+        why = ("as_rigid = true: a rigid body has no deformation to damp" if as_rigid else
+               f'elasticity = "{elasticity}": the Rayleigh damping is the co-rotated law\'s')
+        raise t.error("damping", t.get("damping"), f"is not taken with {why}")
+    return damping
 
 
 def _body(name: str, raw: Any, folder: Path) -> BodySpec:

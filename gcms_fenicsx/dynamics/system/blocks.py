@@ -80,8 +80,15 @@ class Single:
     def mass_solver(self) -> Solve:
         return self.member.mass_solver()
 
-    def iteration(self, beta_p: float) -> Callable[[Any], Iteration]:
-        return self.member.iteration(beta_p, self.scatter.vectors)
+    @property
+    def damped(self) -> bool:
+        return self.member.damped
+
+    def damping_force(self, v: np.ndarray, state: Any) -> tuple[np.ndarray, float]:
+        return self.member.damping_force(v, state)
+
+    def iteration(self, beta_p: float, gamma_p: float) -> Callable[[Any], Iteration]:
+        return self.member.iteration(beta_p, self.scatter.vectors, gamma_p)
 
 
 @dataclass(frozen=True)
@@ -119,13 +126,16 @@ class Batch:
         inverse = self.members[0].mass_solver()
         return lambda x: self._each(inverse, x)
 
-    def iteration(self, beta_p: float) -> Callable[[ElasticStates], Iteration]:
+    #: members with damping are stepped alone (``batch_key``)
+    damped = False
+
+    def iteration(self, beta_p: float, gamma_p: float) -> Callable[[ElasticStates], Iteration]:
         """states ↦ the members' solves with T_b S₀⁻¹ T_bᵀ (``Flexible.iteration``: S₀ = β' Mr
         + Kr factorised once, and solved here once for the 3 columns kron(v_i, e_l) of every
         row term of every member), each member turned by its own frame."""
         body, k = self.body, len(self.members)
         nf = body.field_count
-        inverse = dense_factorization(beta_p * body.mass + body.stiffness)
+        inverse = dense_factorization(self.members[0].iteration_matrix(beta_p, gamma_p))
         vectors, owners = self.scatter.vectors, self.scatter.owners
         units = np.zeros((nf, 3, len(vectors), 3))
         for l in range(3):
@@ -157,9 +167,9 @@ Block = Single | Batch
 
 def batch_key(member: Member) -> tuple | None:
     """What members must share to be stepped as one :class:`Batch`: the class, the body and
-    the factorisation, with the co-rotated law on a dense body; None for a member that
-    cannot be."""
-    if not isinstance(member, Flexible) or member.law is not None or (
+    the factorisation, with the co-rotated law on a dense body and no damping; None for a
+    member that cannot be."""
+    if not isinstance(member, Flexible) or member.law is not None or member.damped or (
             member.coordinates_map is not None):
         return None
     if member.factorize is not dense_factorization or not isinstance(

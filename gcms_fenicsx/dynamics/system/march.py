@@ -3,10 +3,11 @@
 
 Energy (J), as the single body's recorder keeps it (``run.recorder``): kinetic T = ½ q̇ᵀ Mr q̇,
 the members' elastic energy V, the gravity potential −q · f_g, and the work integrals
-accumulated by the trapezoidal rule over every step: the loads' ∫ f_load · q̇ dt and the
-rows' ∫ −λ · (C q̇) dt (a path's work: a driven crank's). The balance error
-(T + V + V_g)(t) − (T + V + V_g)(0) − W_load − W_rows is zero for the exact solution, and
-the relative drift is its largest magnitude over the largest of T + V and the two works.
+accumulated by the trapezoidal rule over every step: the loads' ∫ f_load · q̇ dt, the
+rows' ∫ −λ · (C q̇) dt (a path's work: a driven crank's) and the damping's dissipation
+D = ∫ ėᵀ D₀ ė dt. The balance error (T + V + V_g)(t) − (T + V + V_g)(0) − W_load − W_rows
++ D is zero for the exact solution, and the relative drift is its largest magnitude over the
+largest of T + V, the two works and D.
 """
 from __future__ import annotations
 
@@ -34,7 +35,8 @@ class AssemblyRun:
     time_s: np.ndarray
     multipliers: np.ndarray          # λ (rows, m)
     iterations: np.ndarray           # Newton iterations of the recorded steps
-    energy: dict[str, np.ndarray]    # kinetic, elastic, gravity, load_work, row_work, balance
+    energy: dict[str, np.ndarray]    # kinetic, elastic, gravity, load_work, row_work,
+    #                                  damping_dissipation, balance
     probes: dict[str, np.ndarray]
     steps: int
     newton_iterations: int           # over every step
@@ -45,10 +47,11 @@ class AssemblyRun:
 
     @property
     def energy_drift_rel(self) -> float:
-        """max |balance error| / max(T + V, |W_load|, |W_rows|) (module docstring)."""
+        """max |balance error| / max(T + V, |W_load|, |W_rows|, D) (module docstring)."""
         e = self.energy
         scale = max(float(np.max(e["kinetic"] + e["elastic"])),
-                    float(np.max(np.abs(e["load_work"]))), float(np.max(np.abs(e["row_work"]))))
+                    float(np.max(np.abs(e["load_work"]))), float(np.max(np.abs(e["row_work"]))),
+                    float(np.max(e["damping_dissipation"])))
         return float(np.max(np.abs(e["balance"]))) / scale if scale > 0 else 0.0
 
 
@@ -69,8 +72,8 @@ class _Energy:
 
     def __init__(self, stepper: AssemblyStepper) -> None:
         self.stepper = stepper
-        self.load_work = self.row_work = 0.0
-        self.powers: tuple[float, float] | None = None
+        self.load_work = self.row_work = self.dissipation = 0.0
+        self.powers: tuple[float, float, float] | None = None
         self.start: float | None = None
 
     def terms(self, s: State, states: list) -> dict[str, float]:
@@ -79,10 +82,12 @@ class _Energy:
         v = s.v
         load = st.external(s.t) - a.gravity_force
         C = st.C if st.C is not None else a.jacobian(s.q, s.t)
-        powers = (float(load.dot(v)), -float(s.lam.dot(C.dot(v))))
+        powers = (float(load.dot(v)), -float(s.lam.dot(C.dot(v))),
+                  st.damping(v, states)[1] if st.damped else 0.0)
         if self.powers is not None:
             self.load_work += 0.5 * st.h * (self.powers[0] + powers[0])
             self.row_work += 0.5 * st.h * (self.powers[1] + powers[1])
+            self.dissipation += 0.5 * st.h * (self.powers[2] + powers[2])
         self.powers = powers
         kinetic = 0.5 * float(v.dot(a.mass.dot(v)))
         elastic = float(sum(x.energy for x in states if x is not None))
@@ -92,7 +97,9 @@ class _Energy:
             self.start = total
         return {"kinetic": kinetic, "elastic": elastic, "gravity": gravity,
                 "load_work": self.load_work, "row_work": self.row_work,
-                "balance": total - self.start - self.load_work - self.row_work}
+                "damping_dissipation": self.dissipation,
+                "balance": (total - self.start - self.load_work - self.row_work
+                            + self.dissipation)}
 
 
 def march(stepper: AssemblyStepper, start: tuple[State, float], end_time_s: float,

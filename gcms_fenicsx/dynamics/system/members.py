@@ -20,6 +20,7 @@ import numpy as np
 
 from gcms_fenicsx.dynamics.bodies.body import Body
 from gcms_fenicsx.dynamics.bodies.corotated import elastic_state
+from gcms_fenicsx.dynamics.bodies.damping import RayleighDamping
 from gcms_fenicsx.dynamics.constraints.factorization import Factorize, Solve, dense_factorization
 from gcms_fenicsx.dynamics.stepping.state import Elastic
 from gcms_fenicsx.dynamics.system import checks
@@ -51,6 +52,8 @@ class Flexible:
     co-rotated law of ``corotated.elastic_state`` unless another is given (Saint
     Venant–Kirchhoff, ``bodies.svk``). ``factorize`` inverts S₀: dense for a reduced body, a
     sparse LU for the full-order one (``references.full_order.sparse_factorization``).
+    ``damping``: Rayleigh damping of its co-rotated deformation rate (``bodies.damping``:
+    rigid motion is not damped), the co-rotated law's only.
     """
 
     name: str
@@ -58,10 +61,35 @@ class Flexible:
     q_start: np.ndarray
     law: Elastic | None = None
     factorize: Factorize = dense_factorization
+    damping: RayleighDamping | None = None
     elastic: Elastic = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "elastic", self.law or partial(elastic_state, self.body))
+        if self.damped and self.law is not None:
+            raise ValueError(f"member {self.name!r}: Rayleigh damping is the co-rotated law's "
+                             "(its deformation rate in the body frame); not with another law")
+
+    @property
+    def damped(self) -> bool:
+        return self.damping is not None and self.damping.active
+
+    @cached_property
+    def damper(self) -> Any:
+        """Its damping force (``RayleighDamping.on``), None when undamped."""
+        return self.damping.on(self.body) if self.damped else None
+
+    def damping_force(self, v: np.ndarray, state: Any) -> tuple[np.ndarray, float]:
+        """(f_d, its dissipated power ėᵀ D₀ ė) at the velocity v and the elastic ``state``:
+        f_d = T (local force) (``damping.DampingForce``)."""
+        local, power = self.damper.local_force(v, state)
+        return local.dot(state.rotation.T).ravel(), power
+
+    def iteration_matrix(self, beta_p: float, gamma_p: float) -> Any:
+        """S₀ = β' Mr + γ' D₀ + Kr (``RayleighDamping.iteration_matrix``; D₀ = 0 undamped)."""
+        if self.damped:
+            return self.damping.iteration_matrix(self.body, beta_p, gamma_p)
+        return beta_p * self.body.mass + self.body.stiffness
 
     @property
     def dofs(self) -> int:
@@ -109,14 +137,16 @@ class Flexible:
         """Its elastic state at q: ``force`` (n,), ``energy``, ``rotation``."""
         return self.elastic(q)
 
-    def iteration(self, beta_p: float, vectors: np.ndarray) -> Callable[[Any], Iteration]:
+    def iteration(self, beta_p: float, vectors: np.ndarray, gamma_p: float = 0.0
+                  ) -> Callable[[Any], Iteration]:
         """state ↦ (y ↦ T S₀⁻¹ Tᵀ y, U ↦ T S₀⁻¹ Tᵀ [kron(v_i, u_i)]_i) for the member's rows
-        with the given ``vectors`` v_i (k × fields). S₀ = β' Mr + Kr is factorised here, once,
+        with the given ``vectors`` v_i (k × fields). S₀ (:meth:`iteration_matrix`, with the
+        damping's γ' D₀ when damped) is factorised here, once,
         and so are its solves with the 3k columns kron(v_i, e_l): a row turned into the frame,
         Tᵀ kron(v, u) = Σ_l (Rᵀ u)_l kron(v, e_l), costs a combination of them, not a solve
         (the single body's unit rows, ``kkt``)."""
         body = self.body
-        inverse: Solve = self.factorize(beta_p * body.mass + body.stiffness)
+        inverse: Solve = self.factorize(self.iteration_matrix(beta_p, gamma_p))
         k = len(vectors)
         units = np.zeros((body.field_count, 3, k, 3))
         for l in range(3):
@@ -184,7 +214,12 @@ class PointMass:
     def state(self, q: np.ndarray) -> None:
         return None
 
-    def iteration(self, beta_p: float, vectors: np.ndarray) -> Callable[[Any], Iteration]:
+    @property
+    def damped(self) -> bool:
+        return False
+
+    def iteration(self, beta_p: float, vectors: np.ndarray, gamma_p: float = 0.0
+                  ) -> Callable[[Any], Iteration]:
         """The point's iteration matrix is β' m I; its rows are v_i u_i (v_i = ±1)."""
         scale = 1.0 / (beta_p * self.mass)
         signs = vectors[:, 0]

@@ -13,12 +13,13 @@ rows are turned the same way: turning the body is B T(α) = (I ⊗ R(α)) B, so 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import partial
+from functools import cached_property, partial
 from typing import Any, Callable
 
 import numpy as np
 
 from gcms_fenicsx.dynamics.bases.run_basis import ROTOR_START
+from gcms_fenicsx.dynamics.bodies.damping import RayleighDamping
 from gcms_fenicsx.dynamics.bodies.rotor import RotorBody, RotorState, rotor_state
 from gcms_fenicsx.dynamics.constraints.factorization import Solve
 from gcms_fenicsx.dynamics.system.members import Flexible, Iteration, placed_coordinates
@@ -58,16 +59,32 @@ class RotorMember(Flexible):
                                         angular_velocity)
         return self.rotor.projector @ full
 
+    @cached_property
+    def damper(self) -> Any:
+        """Its damping force on the rotor's deformation rate (``rotor.RotorDamping``)."""
+        return self.damping.on(self.rotor) if self.damped else None
+
+    def damping_force(self, v: np.ndarray, state: RotorState) -> tuple[np.ndarray, float]:
+        local, power = self.damper.local_force(v, state)
+        return self.rotor.frame.to_global(local, state.rotation), power
+
+    def iteration_matrix(self, beta_p: float, gamma_p: float) -> Any:
+        """S₀ = β' Mp + γ' D₀ + K̃ (D₀ = α Mp + β K̃ when damped)."""
+        if self.damped:
+            return self.damping.iteration_matrix(self.rotor, beta_p, gamma_p)
+        return beta_p * self.rotor.mass + self.rotor.stiffness
+
     def mass_dot(self, x: np.ndarray) -> np.ndarray:
         return self.rotor.mass @ x
 
     def mass_solver(self) -> Solve:
         return self.factorize(self.rotor.mass)
 
-    def iteration(self, beta_p: float, vectors: np.ndarray) -> Callable[[Any], Iteration]:
+    def iteration(self, beta_p: float, vectors: np.ndarray, gamma_p: float = 0.0
+                  ) -> Callable[[Any], Iteration]:
         """state ↦ (y ↦ T S₀⁻¹ Tᵀ y, U ↦ T S₀⁻¹ Bᵀ [kron(v_i, u_i)]_i) (module docstring)."""
         rotor, nf, k = self.rotor, self.body.field_count, len(vectors)
-        inverse: Solve = self.factorize(beta_p * rotor.mass + rotor.stiffness)
+        inverse: Solve = self.factorize(self.iteration_matrix(beta_p, gamma_p))
         units = np.zeros((nf, 3, k, 3))
         for l in range(3):
             units[:, l, :, l] = vectors.T
@@ -100,7 +117,8 @@ def turned(X: np.ndarray, pairs: int, phase: complex) -> np.ndarray:
 
 
 def rotor_member(name: str, rotor: RotorBody, rotation: np.ndarray | None = None,
-                 position: np.ndarray | None = None) -> RotorMember:
+                 position: np.ndarray | None = None,
+                 damping: RayleighDamping | None = None) -> RotorMember:
     """The member of ``rotor`` placed as ``placed_coordinates`` places its full body; a
     ValueError when the placement is not in the rotor basis (a turn about another axis than
     the rotor's)."""
@@ -111,4 +129,4 @@ def rotor_member(name: str, rotor: RotorBody, rotation: np.ndarray | None = None
                          f"{np.round(rotor.basis.axis, 6).tolist()} (its own coordinates): its "
                          "placement may turn it about that axis only (the rotor basis holds no "
                          f"other turn; {outside:.2g} of the placed body lies outside it)")
-    return RotorMember(name, rotor.full, p, rotor=rotor)
+    return RotorMember(name, rotor.full, p, damping=damping, rotor=rotor)

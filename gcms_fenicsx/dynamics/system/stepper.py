@@ -72,20 +72,22 @@ class AssemblyStepper:
                                  f"assembly's coordinates), gave shape {f.shape} at t = 0")
         self.h = settings.time_step_s
         p = AlphaParameters.from_rho_inf(settings.rho_inf)
-        beta_p, _ = newton_coefficients(p, self.h)
+        beta_p, gamma_p = newton_coefficients(p, self.h)
         self.predictor, self.update = step_matrices(p, self.h)
-        self.solvers = [(block, self._iteration(block, beta_p)) for block in assembly.blocks]
+        self.solvers = [(block, self._iteration(block, beta_p, gamma_p))
+                        for block in assembly.blocks]
+        self.damped = [(k, block) for k, (block, _) in enumerate(self.solvers) if block.damped]
         self.mass = assembly.mass
         self.C = assembly.matrix if assembly.constant else None
         self.tolerance_m = settings.tolerance * assembly.size_m
 
-    def _iteration(self, block: Block, beta_p: float) -> Any:
+    def _iteration(self, block: Block, beta_p: float, gamma_p: float) -> Any:
         """The member's Newton solves; a singular S₀ = β' Mr + Kr explained: β' = O(1/h²) makes
         it Mr's scale for any sane h, so it is singular when h is far too large for the member
         (its Mr and Kr are then of different orders, Kr's near-zero rigid part decides) or when
         its Mr is."""
         try:
-            return block.iteration(beta_p)
+            return block.iteration(beta_p, gamma_p)
         except SingularMatrixError as exc:
             names = ", ".join(repr(m.name) for m in block.members)
             raise IntegrationError(
@@ -104,6 +106,16 @@ class AssemblyStepper:
                 f[block.where] = state.force
             states.append(state)
         return f, states
+
+    def damping(self, v: np.ndarray, states: list[Any]) -> tuple[np.ndarray, float]:
+        """The damped members' forces f_d (N,) at the velocity v and their elastic ``states``,
+        and the power they dissipate."""
+        f, power = np.zeros_like(v), 0.0
+        for k, block in self.damped:
+            force, dissipated = block.damping_force(v[block.where], states[k])
+            f[block.where] = force
+            power += dissipated
+        return f, power
 
     def external(self, t: float) -> np.ndarray:
         """f_ext(t): gravity and the loads."""
@@ -145,6 +157,8 @@ class AssemblyStepper:
                     f"Newton diverged at t = {t1:.6g} s: iteration {iteration} reached a state "
                     f"whose affine map has {exc.numbers}; reduce the time step (now "
                     f"{self.h:g} s) or the loads", t1) from exc
+            if self.damped:
+                f_int = f_int + self.damping(Z[1], states)[0]
             C = self.C if self.C is not None else a.jacobian(q, t1)
             r = mass.dot(acc) + f_int - f_ext + C.T.dot(lam)
             g = C.dot(q) - targets if targets is not None else a.residual(q, t1)
@@ -174,7 +188,7 @@ def initial_state(stepper: AssemblyStepper, velocity: np.ndarray | None = None
     """The state at t = 0 from q_start and ``velocity`` (default: at rest): the velocity made
     consistent with the rows, Cq̇ + ∂g/∂t = 0, by its least change in kinetic energy (q̇ ←
     q̇ − Mr⁻¹Cᵀ(C Mr⁻¹Cᵀ)⁻¹(Cq̇ − ḋ)), then q̈ and λ from [Mr Cᵀ; C 0][q̈; λ] = [f_ext −
-    f_int; d̈(0)], and a = q̈. Returns the state and the relative size of the velocity's
+    f_int − f_d(q̇); d̈(0)], and a = q̈. Returns the state and the relative size of the velocity's
     change √(Δq̇ᵀ Mr Δq̇ / q̇ᵀ Mr q̇) (0 when none was needed)."""
     a = stepper.assembly
     q = a.q_start.copy()
@@ -182,7 +196,7 @@ def initial_state(stepper: AssemblyStepper, velocity: np.ndarray | None = None
          else checks.vector("velocity (the assembly's q̇ at t = 0)", velocity, a.dofs).copy())
     C, mass = a.matrix, a.mass
     inverse = a.mass_inverse()
-    f_int, _ = stepper.internal(q)
+    f_int, states = stepper.internal(q)
     force = stepper.external(0.0) - f_int
     change = 0.0
     if len(C):
@@ -193,6 +207,9 @@ def initial_state(stepper: AssemblyStepper, velocity: np.ndarray | None = None
         energy = float(v.dot(mass.dot(v)))
         change = math.sqrt(float(dv.dot(mass.dot(dv))) / energy) if energy > 0 else 0.0
         v += dv
+    if stepper.damped:
+        force = force - stepper.damping(v, states)[0]
+    if len(C):
         lam = np.linalg.solve(A, C.dot(inverse.dot(force)) - a.rates(q, v, 0.0)[1])
         force = force - C.T.dot(lam)
     else:
