@@ -431,6 +431,61 @@ def test_a_body_of_a_system_study_refuses_the_static_shapes():
     assert '"modes"' in said and "deforms along its modes" in said, said
 
 
+def _beam_on(kind: str, joints: list, rotation: dict | None = None) -> dict:
+    """The test beam (``[basis] kind``) with a rigid arm driven about x at the ground."""
+    from beams import beam_study
+
+    beam = dict(tomllib.loads(beam_study(6)), basis={"kind": kind})
+    if rotation:
+        beam["rotation"] = rotation
+    arm = {"mass": 1.0, "center": [0.0, 0.0, 0.0], "inertia": [0.1, 0.1, 0.1],
+           "points": {"hub": [0.0, 0.0, 0.0], "tip": [0.0, 0.0, 0.0]}}
+    return {"system": {"end_time": 0.01, "time_step": 1e-3},
+            "bodies": {"arm": {"rigid": arm}, "beam": beam},
+            "joints": [{"name": "drive", "type": "revolute", "body": "arm", "point": "hub",
+                        "axis": [1.0, 0.0, 0.0], "drive": {"angular_velocity": 10.0}}] + joints}
+
+
+#: The beam hinged about z to the driven arm only (it turns about x and z), or to the ground.
+ON_THE_ARM = [{"name": "pin", "type": "revolute", "body": "beam", "point": "end_x0",
+               "to_body": "arm", "to_point": "tip", "axis": [0.0, 0.0, 1.0]}]
+TO_THE_GROUND = [{"name": "pin", "type": "revolute", "body": "beam", "point": "end_x0",
+                  "axis": [0.0, 0.0, 1.0]}]
+
+
+@pytest.mark.parametrize("joints, rotation, says, reason", [
+    (ON_THE_ARM, None, "needs joints to the ground that leave the body turning",
+     "the scene has no joints"),
+    (TO_THE_GROUND, {"axis": [0.0, 1.0, 0.0], "angle": 90.0},
+     "its rotation turns it about another axis than its rotor axis",
+     "turns it about another axis"),
+])
+def test_the_rotor_basis_is_chosen_by_a_bodys_joints_to_the_ground(tmp_path, joints, rotation,
+                                                                   says, reason):
+    """``[basis] kind = "rotor"`` on a body its joints to the ground do not hold to one axis
+    (hinged only to a body that turns about another: before, the implied scene read every
+    joint as one to the ground, chose the rotor basis, and Newton failed at 42 ms), or placed
+    turned about another axis than its rotor axis (before: refused only after its model was
+    built, naming the wrong key): refused when the study is read, naming the body, the key and
+    why; ``"auto"`` steps it in the full basis, saying why. Hinged to the ground about its own
+    axis, both choose the rotor basis."""
+    from gcms_fenicsx.config.system import FlexibleSpec
+
+    with pytest.raises(ConfigError) as caught:
+        parse_system(_beam_on("rotor", joints, rotation), "t", tmp_path)
+    said = str(caught.value)
+    assert "body 'beam'" in said and "[basis] kind = 'rotor'" in said and says in said, said
+    beam = next(b for b in parse_system(_beam_on("auto", joints, rotation), "t", tmp_path).bodies
+                if isinstance(b, FlexibleSpec))
+    assert beam.basis.kind == "full" and beam.rotor_scene is None
+    assert reason in beam.basis.reason, beam.basis.reason
+    for kind in ("rotor", "auto"):
+        beam = next(b for b in parse_system(_beam_on(kind, TO_THE_GROUND), "t", tmp_path).bodies
+                    if isinstance(b, FlexibleSpec))
+        assert beam.basis.kind == "rotor" and beam.basis.axis == (0.0, 0.0, 1.0)
+        assert [j.name for j in beam.rotor_scene.joints] == ["end_x0"]
+
+
 def test_joints_that_do_not_meet_are_refused_naming_them(tmp_path):
     """A joint whose points start apart (the conrod placed 1 cm off its crank pin) is refused
     before any step, naming the joint and the gap (``assemble``)."""

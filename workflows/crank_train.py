@@ -1,7 +1,7 @@
-"""The inline-4 crank train (workflows/crank_train.toml) against its rigid twin and, over a
-window around a firing, against the same train with the crankshaft full order.
+"""The inline-4 crank train (workflows/crank_train.toml) against its rigid twin, with its
+crankshaft in the rotor basis and, over a window from the start, with it full order.
 
-Three comparisons of the study as written (GCMS crankshaft and conrods, point-mass pistons;
+Four comparisons of the study as written (GCMS crankshaft and conrods, point-mass pistons;
 ``gcms run workflows/crank_train.toml`` steps the same):
 
 - its energy balance (``energy_drift_rel``) and a work balance nobody tuned: over the two
@@ -29,7 +29,8 @@ Three comparisons of the study as written (GCMS crankshaft and conrods, point-ma
 
 Writes OUT/crank_train.json (the runs' settings, speeds and drifts, the comparisons), .md
 (the tables) and .png (forces and drive torque, flexible and rigid; the window against (a)).
-One BLAS thread; the bodies' stages and the two runs take about a minute, (a) about five more.
+One BLAS thread; the bodies' stages and the three runs take about a minute, (a) about five more
+(twenty with ``--window 0.12``).
 """
 from __future__ import annotations
 
@@ -256,7 +257,7 @@ def window(cfg: Any, rotor_cfg: Any, models: dict, folder: Path, end_s: float) -
 
 def against_full(runs: dict) -> dict:
     """Each main-bearing and big-end force and the drive torque over the window: (a)'s peak
-    and max |GCMS − (a)| / that peak."""
+    and max |GCMS − (a)| / that peak, with the crankshaft in the full and in the rotor basis."""
     gcms, rotor, full = (runs[k]["joints"] for k in ("gcms", "rotor", "full"))
     rows = {}
     for name in families(full, "main") + families(full, "big_end"):

@@ -71,18 +71,18 @@ def members(cfg: SystemConfig, models: dict[str, ReducedModel],
         return RayleighDamping(*spec.damping) if spec.damping != (0.0, 0.0) else None
 
     def in_rotor_basis(spec: FlexibleSpec, model: ReducedModel, body: Any) -> Any:
-        """The rotor body of ``body`` when its study asks for it (and its scene allows), else
-        None (``run_basis.in_basis``)."""
+        """The rotor body of ``body`` when the study chose the rotor basis for it (by its
+        joints to the ground, ``config.body_scene.basis_in_system``), else None."""
         from gcms_fenicsx.dynamics.bases.run_basis import in_basis
-        from gcms_fenicsx.dynamics.bodies.rotor import RotorBody
 
-        plan = spec.study.plan.scene
-        if plan is None or plan.basis == "full" or spec.elasticity != "corotated":
+        if spec.rotor_scene is None:
+            if spec.study.basis.kind == "auto":
+                progress(f"{spec.name}: basis: full ({spec.basis.reason})")
             return None
         if id(model) not in rotors:
-            made = in_basis(model, body, plan.scene, plan.basis, plan.attachment,
-                            lambda line: progress(f"{spec.name}: {line}"))
-            rotors[id(model)] = made if isinstance(made, RotorBody) else None
+            rotors[id(model)] = in_basis(model, body, spec.rotor_scene, "rotor",
+                                         spec.study.plan.scene.attachment,
+                                         lambda line: progress(f"{spec.name}: {line}"))
         return rotors[id(model)]
 
     def member(spec: Any, x0: np.ndarray) -> Any:

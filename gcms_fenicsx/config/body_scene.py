@@ -11,16 +11,73 @@ from __future__ import annotations
 
 import hashlib
 import json
+from dataclasses import replace
 from typing import Any, Sequence
 
 import numpy as np
 
+from gcms_fenicsx.config.basis_choice import BasisChoice, choose_basis
+from gcms_fenicsx.config.scene import Scene, SceneError
 from gcms_fenicsx.config.study import StudyConfig, parse_config
 from gcms_fenicsx.config.table import ConfigError
 
+#: The other end of a joint that holds a body where it starts.
+GROUND = "ground"
 #: The scene joint a system joint implies on a flexible body's group (its attachment loads).
 SCENE_JOINT = {"spherical": "spherical", "revolute": "revolute", "cylindrical": "revolute",
                "prismatic": "fixed", "fixed": "fixed"}
+
+
+def _implied(joints: Sequence[Any], body: Any) -> list[tuple[dict[str, Any], bool]]:
+    """The scene joints the system's ``joints`` imply on ``body`` (:func:`body_scene`), each
+    with whether its system joint holds the body to the ground."""
+    R0 = body.placement.matrix
+    implied: list[tuple[dict[str, Any], bool]] = []
+    for j in joints:
+        for owner, group, other in ((j.body, j.point, j.to_body), (j.to_body, j.to_point, j.body)):
+            if owner == body.name:
+                held = sum(e["group"] == group for e, _ in implied)
+                entry: dict[str, Any] = {"name": f"{group}_{held}" if held else group,
+                                         "type": SCENE_JOINT[j.type], "group": group}
+                if entry["type"] == "revolute":
+                    entry["axis"] = (np.round(R0.T @ np.array(j.axis), 12) + 0.0).tolist()
+                implied.append((entry, other == GROUND))
+    return implied
+
+
+def basis_in_system(body: Any, joints: Sequence[Any]) -> tuple[BasisChoice, Scene | None]:
+    """The basis the flexible ``body`` (its study parsed) steps in, and, for the rotor basis,
+    the scene of its joints to the ground it is chosen by: ``[basis] kind = "rotor"`` or
+    "auto" takes it when the joints that hold the body to the ground leave it turning about
+    one axis (``basis_choice.choose_basis``; its joints to other bodies load it, they do not
+    turn its axis) and its placement turns it about that axis only. ConfigError for "rotor"
+    otherwise, naming the body, the key and why; "auto" is then the full basis."""
+    kind, scene = body.study.basis.kind, body.study.scene
+    if kind == "full":
+        return BasisChoice("full", None, '[basis] kind = "full"'), None
+    ground_names = {entry["name"] for entry, grounded in _implied(joints, body) if grounded}
+    ground = (None if scene is None else
+              replace(scene, joints=tuple(j for j in scene.joints if j.name in ground_names)))
+    where = f"body {body.name!r} ({body.source}): [basis] kind"
+    try:
+        choice = choose_basis(kind, ground if ground is not None else _NO_JOINTS)
+    except SceneError as exc:
+        raise ConfigError(where, kind, "needs joints to the ground that leave the body turning "
+                          f"about one axis (its joints to other bodies load it): {exc}") from exc
+    if choice.kind == "rotor":
+        axis = np.array(choice.axis)
+        if np.abs(body.placement.matrix @ axis - axis).max() > 1e-9:
+            why = (f"its rotation turns it about another axis than its rotor axis "
+                   f"{np.round(axis, 6).tolist()} (its own coordinates)")
+            if kind == "rotor":
+                raise ConfigError(where, kind, f"cannot be taken: {why}; the rotor basis holds "
+                                  "turns about that axis only")
+            return BasisChoice("full", None, why), None
+    return choice, (ground if choice.kind == "rotor" else None)
+
+
+#: The scene of a body that no joint holds (for ``choose_basis``'s reason).
+_NO_JOINTS = Scene(end_time_s=1.0, time_step_s=1.0)
 
 
 def body_scene(joints: Sequence[Any], body: Any, end_time_s: float, time_step_s: float
@@ -29,17 +86,7 @@ def body_scene(joints: Sequence[Any], body: Any, end_time_s: float, time_step_s:
     system's ``joints`` imply: a joint of the scene's kind (:data:`SCENE_JOINT`) at each group
     they hold, its axis in the body's own coordinates, and the body's ``elasticity`` when not
     co-rotated; None when nothing is to be said."""
-    R0 = body.placement.matrix
-    implied: list[dict[str, Any]] = []
-    for j in joints:
-        for owner, group in ((j.body, j.point), (j.to_body, j.to_point)):
-            if owner == body.name:
-                held = sum(e["group"] == group for e in implied)
-                entry: dict[str, Any] = {"name": f"{group}_{held}" if held else group,
-                                         "type": SCENE_JOINT[j.type], "group": group}
-                if entry["type"] == "revolute":
-                    entry["axis"] = (np.round(R0.T @ np.array(j.axis), 12) + 0.0).tolist()
-                implied.append(entry)
+    implied = [entry for entry, _ in _implied(joints, body)]
     if not implied and body.elasticity == "corotated":
         return None
     return {"end_time": end_time_s, "time_step": time_step_s, "joints": implied,

@@ -21,7 +21,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from gcms_fenicsx.config.body_scene import body_scene, body_study
+from gcms_fenicsx.config.body_scene import GROUND, basis_in_system, body_scene, body_study
 from gcms_fenicsx.config.engine import EngineSpec, parse_engine
 from gcms_fenicsx.config.scene import ELASTICITIES, Drive, parse_drive
 from gcms_fenicsx.config.study import KNOWN_TABLES, StudyConfig
@@ -32,8 +32,6 @@ SYSTEM_TABLES = ("system", "bodies", "joints", "engine")
 JOINT_TYPES = ("spherical", "revolute", "cylindrical", "prismatic", "fixed")
 #: A run of more steps than this is a time step given in the wrong unit (days at ~300 steps/s).
 MAX_STEPS = 1e8
-#: The other end of a joint that holds a body where it starts.
-GROUND = "ground"
 #: Tables of a flexible body's study that may be given inline in [bodies.NAME].
 BODY_STUDY_TABLES = tuple(t for t in KNOWN_TABLES if t != "scene")
 
@@ -74,6 +72,10 @@ class FlexibleSpec:
     elasticity: str = "corotated"
     #: Rayleigh damping (α in 1/s, β in s) of its co-rotated deformation rate
     damping: tuple[float, float] = (0.0, 0.0)
+    #: the basis it steps in (``body_scene.basis_in_system``) and, for the rotor basis, the
+    #: scene of its joints to the ground that chose it
+    basis: Any = None
+    rotor_scene: Any = None
     kind: str = field(default="flexible", init=False)
 
 
@@ -385,4 +387,5 @@ def _with_study(cfg: SystemConfig, body: BodySpec) -> BodySpec:
         return body
     study, key = body_study(body, body_scene(cfg.joints, body, cfg.end_time_s,
                                              cfg.time_step_s))
-    return replace(body, study=study, model_key=key)
+    choice, rotor_scene = basis_in_system(replace(body, study=study), cfg.joints)
+    return replace(body, study=study, model_key=key, basis=choice, rotor_scene=rotor_scene)

@@ -105,7 +105,7 @@ def elastic_states(body: Body, Q: np.ndarray) -> ElasticStates:
     reduced body at once — the members of an assembly that share a model: the same formulas
     (module docstring) with every product over the fields taken for the k of them together
     (k columns, or a stack of k frames), so k configurations make one configuration's NumPy
-    calls. InvertedBodyError for the first whose affine map has no rotation."""
+    calls. InvertedBodyError for the worst of them when an affine map has no rotation."""
     pr = body.projections
     k, nf = Q.shape[:2]
     W, s, Vt = svd(np.matmul(Q.transpose(0, 2, 1), body.affine))     # Qᵀ H = W Σ Vᵀ

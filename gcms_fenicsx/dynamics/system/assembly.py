@@ -33,7 +33,7 @@ class AssemblyError(ValueError):
 
 class MemberRows(NamedTuple):
     """A member's part of the kept rows: row ``index[i]`` has the Jacobian block kron(v_i, u_i)
-    over its coordinates (``vectors`` k × its fields, constant); ``entries`` (joint, term, row
+    over its body's GCMS coordinates (times B for a member in the rotor basis) (``vectors`` k × its fields, constant); ``entries`` (joint, term, row
     within the joint) says where u_i comes from, ``terms`` where the u_i are in
     :meth:`Assembly.directions`. ``index`` is ascending; ``starts`` are the positions where a
     new row begins (a row may have several terms on one member)."""
@@ -123,7 +123,8 @@ class Assembly:
         return next(m for m in self.members if m.name == name)
 
     def parts(self, q: np.ndarray) -> Parts:
-        """Each member's coordinates as rows of 3 (views of q)."""
+        """Each member's body's GCMS coordinates as rows of 3 (views of q; B p for a member in
+        the rotor basis)."""
         return {m.name: m.fields(q[self.offsets[m.name]]) for m in self.members}
 
     @cached_property

@@ -19,7 +19,7 @@ import numpy as np
 
 from gcms_fenicsx.dynamics.bodies.corotated import ElasticStates, elastic_states
 from gcms_fenicsx.dynamics.constraints.factorization import Solve, dense_factorization
-from gcms_fenicsx.dynamics.system.members import Flexible, Iteration, Member
+from gcms_fenicsx.dynamics.system.members import Flexible, Iteration, Member, unit_rows
 
 Where = slice | np.ndarray
 
@@ -27,7 +27,7 @@ Where = slice | np.ndarray
 @dataclass(frozen=True)
 class BlockDiagonal:
     """diag(A_1, …, A_B) applied block by block to (N,) or (N, k) arrays by ``@``/``dot``:
-    ``blocks`` (slice, the block's product)."""
+    ``blocks`` (its coordinates: a slice or an index array, the block's product)."""
 
     blocks: tuple[tuple[slice, Any], ...]
 
@@ -137,11 +137,8 @@ class Batch:
         nf = body.field_count
         inverse = dense_factorization(self.members[0].iteration_matrix(beta_p, gamma_p))
         vectors, owners = self.scatter.vectors, self.scatter.owners
-        units = np.zeros((nf, 3, len(vectors), 3))
-        for l in range(3):
-            units[:, l, :, l] = vectors.T
         # S₀⁻¹ kron(v_i, e_l), laid out (term i, coordinate, l)
-        solved = np.ascontiguousarray(np.asarray(inverse(units.reshape(body.dofs, -1)))
+        solved = np.ascontiguousarray(np.asarray(inverse(unit_rows(vectors)))
                                       .reshape(body.dofs, len(vectors), 3).transpose(1, 0, 2))
 
         def at(states: ElasticStates) -> Iteration:
@@ -166,9 +163,9 @@ Block = Single | Batch
 
 
 def batch_key(member: Member) -> tuple | None:
-    """What members must share to be stepped as one :class:`Batch`: the class, the body and
-    the factorisation, with the co-rotated law on a dense body and no damping; None for a
-    member that cannot be."""
+    """What members must share to be stepped as one :class:`Batch`: the class and the body
+    (dense, factorised densely, with the co-rotated law, in the full basis, undamped); None
+    for a member that cannot be."""
     if not isinstance(member, Flexible) or member.law is not None or member.damped or (
             member.coordinates_map is not None):
         return None

@@ -44,6 +44,16 @@ def placed_coordinates(body: Body, rotation: np.ndarray | None = None,
     return (body.q0.reshape(-1, 3) @ R0.T + np.outer(body.unit, x0)).ravel()
 
 
+def unit_rows(vectors: np.ndarray) -> np.ndarray:
+    """The columns kron(v_i, e_l) of rows with the vectors v_i (k × fields), laid out (3 fields,
+    3 k) with column 3 i + l: what S₀⁻¹ is applied to once per run (``iteration``)."""
+    k, nf = vectors.shape
+    units = np.zeros((nf, 3, k, 3))
+    for l in range(3):
+        units[:, l, :, l] = vectors.T
+    return units.reshape(3 * nf, 3 * k)
+
+
 @dataclass(frozen=True)
 class Flexible:
     """A flexible body in the assembly, undeformed at ``q_start`` (:func:`placed_coordinates`).
@@ -148,11 +158,9 @@ class Flexible:
         body = self.body
         inverse: Solve = self.factorize(self.iteration_matrix(beta_p, gamma_p))
         k = len(vectors)
-        units = np.zeros((body.field_count, 3, k, 3))
-        for l in range(3):
-            units[:, l, :, l] = vectors.T
-        solved = (np.asarray(inverse(units.reshape(body.dofs, 3 * k))).reshape(units.shape)
-                  if k else units)
+        units = unit_rows(vectors)
+        solved = (np.asarray(inverse(units)).reshape(body.field_count, 3, k, 3) if k
+                  else units.reshape(body.field_count, 3, k, 3))
 
         def at(state: Any) -> Iteration:
             R = state.rotation

@@ -22,7 +22,7 @@ from gcms_fenicsx.dynamics.bases.run_basis import ROTOR_START
 from gcms_fenicsx.dynamics.bodies.damping import RayleighDamping
 from gcms_fenicsx.dynamics.bodies.rotor import RotorBody, RotorState, rotor_state
 from gcms_fenicsx.dynamics.constraints.factorization import Solve
-from gcms_fenicsx.dynamics.system.members import Flexible, Iteration, placed_coordinates
+from gcms_fenicsx.dynamics.system.members import Flexible, Iteration, placed_coordinates, unit_rows
 
 
 @dataclass(frozen=True)
@@ -83,12 +83,9 @@ class RotorMember(Flexible):
     def iteration(self, beta_p: float, vectors: np.ndarray, gamma_p: float = 0.0
                   ) -> Callable[[Any], Iteration]:
         """state ↦ (y ↦ T S₀⁻¹ Tᵀ y, U ↦ T S₀⁻¹ Bᵀ [kron(v_i, u_i)]_i) (module docstring)."""
-        rotor, nf, k = self.rotor, self.body.field_count, len(vectors)
+        rotor, k = self.rotor, len(vectors)
         inverse: Solve = self.factorize(self.iteration_matrix(beta_p, gamma_p))
-        units = np.zeros((nf, 3, k, 3))
-        for l in range(3):
-            units[:, l, :, l] = vectors.T
-        columns = rotor.coordinates.T @ units.reshape(3 * nf, 3 * k)     # Bᵀ kron(v_i, e_l)
+        columns = rotor.coordinates.T @ unit_rows(vectors)              # Bᵀ kron(v_i, e_l)
         solved = np.asarray(inverse(columns)).reshape(rotor.dofs, k, 3) if k else None
         frame = rotor.frame
 

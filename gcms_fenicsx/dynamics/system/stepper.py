@@ -91,7 +91,7 @@ class AssemblyStepper:
         except SingularMatrixError as exc:
             names = ", ".join(repr(m.name) for m in block.members)
             raise IntegrationError(
-                f"member {names}: its iteration matrix β' Mr + Kr is singular "
+                f"member {names}: its iteration matrix β' M + γ' D + K is singular "
                 f"({exc.numbers}) at time_step_s = {self.h:g} s: the step is far too large for "
                 "the member (a step in µs given in s?), or its reduced mass matrix is singular",
                 0.0) from exc
@@ -138,15 +138,14 @@ class AssemblyStepper:
         return BlockDiagonal(tuple(solves)), W
 
     def step(self, s: State) -> tuple[State, list[Any], int]:
-        """Advance one step h (module docstring): (the state, the members' elastic states at
-        it, Newton iterations); IntegrationError if Newton does not converge."""
+        """Advance one step h (module docstring): (the state, the blocks' elastic states at
+        its last iterate, Newton iterations); IntegrationError if Newton does not converge."""
         t1 = s.t + self.h
         Z = self.predictor.dot(s.Z)
         q, acc = Z[0], Z[2]
         lam = s.lam.copy()
         a, mass, update = self.assembly, self.mass, self.update
         f_ext = self.external(t1)
-        targets = a.targets(t1) if self.C is not None else None
         total, tol = a.total_mass_kg, self.tolerance_m
         previous, delta = math.inf, math.inf
         for iteration in range(1, self.settings.max_iterations + 1):
@@ -161,7 +160,7 @@ class AssemblyStepper:
                 f_int = f_int + self.damping(Z[1], states)[0]
             C = self.C if self.C is not None else a.jacobian(q, t1)
             r = mass.dot(acc) + f_int - f_ext + C.T.dot(lam)
-            g = C.dot(q) - targets if targets is not None else a.residual(q, t1)
+            g = a.residual(q, t1)
             if iteration == 1:
                 solve, W = self.linearise(states, q, t1)
                 coupling = np.linalg.inv(C.dot(W)) if len(C) else np.zeros((0, 0))
