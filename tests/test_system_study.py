@@ -455,7 +455,7 @@ TO_THE_GROUND = [{"name": "pin", "type": "revolute", "body": "beam", "point": "e
 
 @pytest.mark.parametrize("joints, rotation, says, reason", [
     (ON_THE_ARM, None, "needs joints to the ground that leave the body turning",
-     "the scene has no joints"),
+     "no joint holds it to the ground"),
     (TO_THE_GROUND, {"axis": [0.0, 1.0, 0.0], "angle": 90.0},
      "its rotation turns it about another axis than its rotor axis",
      "turns it about another axis"),

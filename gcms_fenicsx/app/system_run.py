@@ -66,25 +66,6 @@ def members(cfg: SystemConfig, models: dict[str, ReducedModel],
     bodies: dict[int, Any] = {}       # one Body per reduced model, however many share it
     rotors: dict[int, Any] = {}       # and one rotor body
 
-    def damping(spec: FlexibleSpec) -> Any:
-        from gcms_fenicsx.dynamics.bodies.damping import RayleighDamping
-        return RayleighDamping(*spec.damping) if spec.damping != (0.0, 0.0) else None
-
-    def in_rotor_basis(spec: FlexibleSpec, model: ReducedModel, body: Any) -> Any:
-        """The rotor body of ``body`` when the study chose the rotor basis for it (by its
-        joints to the ground, ``config.body_scene.basis_in_system``), else None."""
-        from gcms_fenicsx.dynamics.bases.run_basis import in_basis
-
-        if spec.rotor_scene is None:
-            if spec.study.basis.kind == "auto":
-                progress(f"{spec.name}: basis: full ({spec.basis.reason})")
-            return None
-        if id(model) not in rotors:
-            rotors[id(model)] = in_basis(model, body, spec.rotor_scene, "rotor",
-                                         spec.study.plan.scene.attachment,
-                                         lambda line: progress(f"{spec.name}: {line}"))
-        return rotors[id(model)]
-
     def member(spec: Any, x0: np.ndarray) -> Any:
         R0 = spec.placement.matrix
         if isinstance(spec, FlexibleSpec) and spec.name in (full_order or {}):
@@ -94,7 +75,7 @@ def members(cfg: SystemConfig, models: dict[str, ReducedModel],
             from gcms_fenicsx.references.full_order import sparse_factorization
             body = full_order[spec.name]
             return Flexible(spec.name, body, placed_coordinates(body, R0, x0),
-                            factorize=sparse_factorization, damping=damping(spec))
+                            factorize=sparse_factorization, damping=damping_of(spec))
         if isinstance(spec, FlexibleSpec):
             model = models[spec.name]
             if id(model) not in bodies:
@@ -102,14 +83,16 @@ def members(cfg: SystemConfig, models: dict[str, ReducedModel],
             body = bodies[id(model)]
             if spec.as_rigid:
                 return rigid_member(spec.name, rigid_twin(body), R0, x0)
-            rotor = in_rotor_basis(spec, model, body)
+            if id(model) not in rotors:
+                rotors[id(model)] = in_rotor_basis(spec, model, body, progress)
+            rotor = rotors[id(model)]
             if rotor is not None:
                 from gcms_fenicsx.dynamics.system.rotor_member import rotor_member
-                return rotor_member(spec.name, rotor, R0, x0, damping(spec))
+                return rotor_member(spec.name, rotor, R0, x0, damping_of(spec))
             law = (elastic_law(model, body, spec.study.scene) if spec.elasticity == "svk"
                    else None)                                 # None: the co-rotated law
             return Flexible(spec.name, body, placed_coordinates(body, R0, x0), law=law,
-                            damping=damping(spec))
+                            damping=damping_of(spec))
         if isinstance(spec, RigidSpec):
             body = rigid_body(spec.mass_kg, np.array(spec.center_m),
                               np.array(spec.inertia_kgm2), spec.points)
@@ -131,6 +114,28 @@ def members(cfg: SystemConfig, models: dict[str, ReducedModel],
         except ValueError as exc:
             raise ConfigError(key, value, str(exc)) from exc
     return tuple(made.values())
+
+
+def damping_of(spec: FlexibleSpec) -> Any:
+    """The body's Rayleigh damping (``bodies.damping``), None when it has none."""
+    from gcms_fenicsx.dynamics.bodies.damping import RayleighDamping
+
+    return RayleighDamping(*spec.damping) if spec.damping != (0.0, 0.0) else None
+
+
+def in_rotor_basis(spec: FlexibleSpec, model: ReducedModel, body: Any, progress: Progress
+                   ) -> Any:
+    """The rotor body of ``body`` when the study chose the rotor basis for it (by its joints
+    to the ground, ``config.body_scene.basis_in_system``), else None."""
+    from gcms_fenicsx.config.basis import parse_basis
+    from gcms_fenicsx.dynamics.bases.run_basis import in_basis
+
+    if spec.rotor_scene is None:
+        if parse_basis(spec.tables.get("basis")).kind == "auto":
+            progress(f"{spec.name}: basis: full ({spec.basis.reason})")
+        return None
+    return in_basis(model, body, spec.rotor_scene, "rotor", spec.study.plan.scene.attachment,
+                    lambda line: progress(f"{spec.name}: {line}"))
 
 
 def aligned_position(align: tuple, at_origin: Any, made: dict[str, Any]) -> np.ndarray:

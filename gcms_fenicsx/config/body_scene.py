@@ -16,6 +16,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from gcms_fenicsx.config.basis import parse_basis
 from gcms_fenicsx.config.basis_choice import BasisChoice, choose_basis
 from gcms_fenicsx.config.scene import Scene, SceneError
 from gcms_fenicsx.config.study import StudyConfig, parse_config
@@ -52,15 +53,21 @@ def basis_in_system(body: Any, joints: Sequence[Any]) -> tuple[BasisChoice, Scen
     one axis (``basis_choice.choose_basis``; its joints to other bodies load it, they do not
     turn its axis) and its placement turns it about that axis only. ConfigError for "rotor"
     otherwise, naming the body, the key and why; "auto" is then the full basis."""
-    kind, scene = body.study.basis.kind, body.study.scene
+    kind, scene = parse_basis(body.tables.get("basis")).kind, body.study.scene
     if kind == "full":
         return BasisChoice("full", None, '[basis] kind = "full"'), None
     ground_names = {entry["name"] for entry, grounded in _implied(joints, body) if grounded}
     ground = (None if scene is None else
               replace(scene, joints=tuple(j for j in scene.joints if j.name in ground_names)))
     where = f"body {body.name!r} ({body.source}): [basis] kind"
+    if ground is None or not ground.joints:
+        if kind == "rotor":
+            raise ConfigError(where, kind, "needs joints to the ground that leave the body "
+                              "turning about one axis, and it has none (its joints to other "
+                              "bodies load it, they do not hold its axis)")
+        return BasisChoice("full", None, "no joint holds it to the ground"), None
     try:
-        choice = choose_basis(kind, ground if ground is not None else _NO_JOINTS)
+        choice = choose_basis(kind, ground)
     except SceneError as exc:
         raise ConfigError(where, kind, "needs joints to the ground that leave the body turning "
                           f"about one axis (its joints to other bodies load it): {exc}") from exc
@@ -74,10 +81,6 @@ def basis_in_system(body: Any, joints: Sequence[Any]) -> tuple[BasisChoice, Scen
                                   "turns about that axis only")
             return BasisChoice("full", None, why), None
     return choice, (ground if choice.kind == "rotor" else None)
-
-
-#: The scene of a body that no joint holds (for ``choose_basis``'s reason).
-_NO_JOINTS = Scene(end_time_s=1.0, time_step_s=1.0)
 
 
 def body_scene(joints: Sequence[Any], body: Any, end_time_s: float, time_step_s: float
@@ -118,7 +121,10 @@ def body_study(body: Any, scene: dict[str, Any] | None) -> tuple[StudyConfig, st
     tables = dict(body.tables) | ({"scene": scene} if scene else {})
     _check_basis(body)
     try:
-        study = parse_config(tables, body.source)
+        # the basis kind is the system's to choose (basis_in_system), not the implied scene's
+        study = parse_config(dict(tables, basis=dict(tables.get("basis") or {}, kind="full")),
+                             body.source)
+        parse_basis(tables.get("basis"))
     except ConfigError as exc:
         raise ConfigError(f"body {body.name!r} ({body.source}): {exc.key}", exc.value,
                           exc.allowed) from exc
