@@ -240,3 +240,22 @@ def test_the_suite_tells_a_clean_failure_from_a_broken_one(widened, tmp_path):
             assert (outcome, problem) == ("failed (1)", "")
         else:
             assert outcome == "BROKEN" and problem, name
+
+
+def test_the_suite_judges_a_system_study_by_its_own_files(tmp_path):
+    """``gcms run`` of a system study (the rigid slider crank, no FE work) writes system.h5
+    and summary.json, not a body's stage files: the suite judges it 'ok' by those, and one
+    whose Newton may take one iteration 'incomplete' by its summary.json saying so (before,
+    every finished system run was judged BROKEN for the body's files it does not write)."""
+    import tomllib
+
+    from test_system_study import RIGID
+
+    study = tomllib.loads(RIGID)
+    assert tomllib.loads(studies.toml_text(study)) == study   # [[joints]] written back
+    run = runner.gcms("run", study, tmp_path / "rigid")
+    assert (run.exit_status, run.outcome, run.problem) == (0, "ok", "")
+    study["system"].update(tolerance=1e-15, max_iterations=1)
+    run = runner.gcms("run", study, tmp_path / "stopped")
+    assert (run.exit_status, run.outcome, run.problem) == (1, "incomplete", "")
+    assert not readers.strict_json(tmp_path / "stopped" / "summary.json")["complete"]

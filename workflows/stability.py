@@ -19,6 +19,9 @@ reorganised. The probe classes (``--only``):
                drive ×1, ×3, ×10: energy balance over time (fitted growth), Newton iterations
   material     ν up to 0.499 (locking), E over ten decades (frequencies ∝ √E, same selection)
   mpi          ``gcms reduce`` on 1 and 2 ranks: frequencies, fields, Mr and Kr entries
+  assembly     the crank train (coarse meshes) as written, undamped, damped ×5, at 2700 and
+               3600 rpm, at half and double the step, in the rotor basis, for four cycles,
+               and with a user's mistakes: energy balance, drive torque, step convergence
 
 Every command's row records its exit status, its last stderr line and its wall time, and the
 suite checks the command's contract (README, "Using it"): it ends in a result (exit status 0,
@@ -57,6 +60,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))  # the package ``stress
 from common import parser, temporary_folder
 from stress import CLASSES, REPO, log
 from stress.document import merged, redraw, write
+from stress.probes_assembly import assembly
 from stress.probes_runs import long_runs, mpi
 from stress.probes_solver import many_modes, material, slenderness
 from stress.probes_symmetry import symmetry, units
@@ -65,7 +69,7 @@ from stress.tables import broken, table
 
 PROBES: dict[str, Probe] = {
     "symmetry": symmetry, "units": units, "slenderness": slenderness, "modes": many_modes,
-    "long": long_runs, "material": material, "mpi": mpi}
+    "long": long_runs, "material": material, "mpi": mpi, "assembly": assembly}
 
 
 def options(argv: list[str] | None) -> argparse.Namespace:

@@ -350,5 +350,70 @@ def text_mpi(rows: list[dict]) -> str:
             f"{g(math.sqrt(two['cond_mr_before']))}.")
 
 
+def ended(r: dict) -> str:
+    """How a run that gave no result ended: its exit status, outcome and last line."""
+    return f"exit {r['exit_status']} ({r['outcome']}): {r.get('read_error') or r['last_stderr']}"
+
+
+def text_assembly(rows: list[dict]) -> str:
+    """Class 8: the crank train's balance, damping, speed, step and basis, and the mistakes."""
+    ok = {r["case"]: r for r in good(rows)}
+    base = ok.get("as written")
+    if base is None:
+        return "The coarse train gave no result: " + ended(rows[0]) + "."
+    runs = [r for r in good(rows) if r.get("energy_drift_rel") is not None]
+    drift = [r["energy_drift_rel"] for r in runs]
+    newton = [r["newton_iterations_mean"] for r in runs]
+    parts = [f"Every finished run balances its energy to {g(min(drift))}–{g(max(drift))} of "
+             f"its largest energy or work, with {g(min(newton), '.2f')}–"
+             f"{g(max(newton), '.2f')} Newton iterations a "
+             f"step; the train as written ({base['coordinates']:,} coordinates) "
+             f"{g(base['steps_per_second'], ',.0f')} steps/s."]
+    torques = [(c, ok[c]["drive_torque_peak_nm"]) for c in ("undamped", "as written",
+                                                            "damping ×5") if c in ok]
+    others = [c for c, _ in torques if c != "as written"]
+    parts.append("The drive torque peaks at " + ", ".join(
+        f"{t:,.0f} N·m {c}" for c, t in torques) + " (the crankshaft's 500 Hz torsional mode "
+        "that the firing's tenth order meets at 3000 rpm); the big-end peak moves by "
+        + ", ".join(f"{rel(ok[c]['big_end_peak_n'], base['big_end_peak_n']):.1e}"
+                    for c in others) + f" ({', '.join(others)}).")
+    half, double = ok.get("half the step"), ok.get("double the step")
+    if half and "torque_difference_rel" in half:
+        text = (f"Half the step moves the drive torque by {g(half['torque_difference_rel'])} of "
+                f"its peak and big-end 1's force by {g(half['big_end_difference_rel'])}")
+        if double and "torque_difference_rel" in double:
+            ratio = double["torque_difference_rel"] / half["torque_difference_rel"]
+            text += (f"; double the step is {g(double['torque_difference_rel'])} and "
+                     f"{g(double['big_end_difference_rel'])} from half (h² convergence makes the "
+                     f"ratio of the two torque differences 5, measured {ratio:.1f})")
+        parts.append(text + ".")
+    if "crankshaft in the rotor basis" in ok:
+        r = ok["crankshaft in the rotor basis"]
+        parts.append(f"The crankshaft in the rotor basis ({r['coordinates']:,} coordinates) "
+                     f"differs from the full basis by {g(r.get('torque_difference_rel'))} of the "
+                     f"drive torque's peak and {g(r.get('big_end_difference_rel'))} of big-end "
+                     f"1's.")
+    if "four cycles" in ok:
+        r = ok["four cycles"]
+        parts.append(f"Over four cycles the balance error's largest value is "
+                     f"{g(r['max_first_tenth'])} in the first tenth of the run (within the "
+                     f"spin-up) and {g(r['max_last_tenth'])} in the last; the maxima of the tenths "
+                     f"after the first grow ∝ t^{g(r.get('growth_exponent'), '.2f')}.")
+    speeds = [c for c in ("2700 rpm", "3600 rpm") if c in ok]
+    if speeds:
+        parts.append("At " + " and ".join(speeds) + " the drive torque peaks at " + " and ".join(
+            f"{ok[c]['drive_torque_peak_nm']:,.0f} N·m" for c in speeds) + ".")
+    mistakes = [r for r in rows if r["case"] in ("missing body", "light piston", "rubber conrod",
+                                                   "1 ms step")]
+    parts += [f"{r['case'].capitalize()}: " + (
+        f"finished, drift {g(r.get('energy_drift_rel'))}, {r.get('dropped_rows')} rows dropped"
+        if r in good(rows) else
+        f"stopped at t = {r['stopped_at_s']:.4g} s after {r['steps']} steps, saying: "
+        f"{r['message']} (exit 1, its rows kept, marked incomplete)" if "message" in r
+        else ended(r)) + "." for r in mistakes]
+    return " ".join(parts)
+
+
 TEXTS = {"symmetry": text_symmetry, "units": text_units, "slenderness": text_slenderness,
-         "modes": text_modes, "long": text_long, "material": text_material, "mpi": text_mpi}
+         "modes": text_modes, "long": text_long, "material": text_material, "mpi": text_mpi,
+         "assembly": text_assembly}

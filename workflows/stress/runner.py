@@ -2,8 +2,8 @@
 for several ranks) and judging how it ended against the command's contract (README, "Using
 it"): a result (exit status 0, its files written, strict JSON) or one line with exit status 1
 or 2 and ``--out`` exactly as it was and no staging folder left behind; the one documented
-exception, a simulation that stops early, keeps ``results.h5`` marked incomplete. Anything
-else is BROKEN."""
+exception, a simulation that stops early, keeps ``results.h5`` marked incomplete (a system
+study: ``system.h5``, its ``summary.json`` saying so). Anything else is BROKEN."""
 from __future__ import annotations
 
 import hashlib
@@ -29,7 +29,10 @@ EXPECTED = {
     "simulate": ("results.h5", "summary.json"),
     "run": ("mesh.json", "modes.json", "selection.json", "reduced.h5", "results.h5",
             "summary.json"),
+    "system": ("system.h5", "summary.json"),    # `gcms run` of a system study
 }
+#: The file a simulation that stops early keeps, by the command's kind.
+RESULTS = {"simulate": "results.h5", "run": "results.h5", "system": "system.h5"}
 STRICT_JSON = ("mesh.json", "modes.json", "selection.json", "summary.json")
 
 
@@ -115,15 +118,18 @@ def judge_result(out: Path, subcommand: str) -> tuple[str, str]:
     return "ok", ""
 
 
-def judge_stopped(out: Path, stderr: str) -> tuple[str, str]:
+def judge_stopped(out: Path, stderr: str, kind: str) -> tuple[str, str]:
     """(outcome, problem) of a simulation that ended with exit status 1 and changed --out:
-    the documented exception when results.h5 says incomplete and the last line says so."""
+    the documented exception when its results (results.h5; a system's summary.json) say
+    incomplete and the last line says so."""
+    said = RESULTS[kind] if kind != "system" else "summary.json"
     try:
-        complete = read_trajectory(out).complete
+        complete = (strict_json(out / said)["complete"] if kind == "system" else
+                    read_trajectory(out).complete)
     except Exception as exc:  # noqa: BLE001 - any failure to read it is the finding
-        return "BROKEN", f"exit status 1, results.h5 left unreadable: {exc}"
+        return "BROKEN", f"exit status 1, {said} left unreadable: {exc}"
     if complete:
-        return "BROKEN", "exit status 1 but --out changed and results.h5 says complete"
+        return "BROKEN", f"exit status 1 but --out changed and {said} says complete"
     # it prints the run's summary before its last line, so no count of lines here
     return "incomplete", ("" if "incomplete" in last_line(stderr) else
                           "exit status 1, results kept, but the last line does not say "
@@ -145,9 +151,9 @@ def judge(run: Run, subcommand: str, before: dict | None, after: dict | None,
         return judge_result(run.out, subcommand)
     if status not in (1, 2):
         return "BROKEN", f"exit status {status}: {last_line(err)}"
-    if status == 1 and subcommand in ("simulate", "run") and before != after \
-            and (run.out / "results.h5").exists():
-        return judge_stopped(run.out, err)
+    if status == 1 and subcommand in RESULTS and before != after \
+            and (run.out / RESULTS[subcommand]).exists():
+        return judge_stopped(run.out, err, subcommand)
     lines = error_lines(err, mpi)
     if len(lines) != 1:
         return "BROKEN", f"exit status {status} with {len(lines)} error lines, not one"
@@ -200,7 +206,10 @@ def gcms(subcommand: str, study: dict | None, out: Path, ranks: int = 1,
                             stderr=subprocess.PIPE, text=True, start_new_session=True)
     status, stderr = finish(proc, timeout)
     run = Run(shown, out, text, status, stderr, time.perf_counter() - t0)
-    run.outcome, run.problem = judge(run, subcommand, before, snapshot(out), ranks > 1)
+    # the built-in default study (no file) is the crank train, a system study
+    kind = "system" if subcommand == "run" and (study is None or "system" in study) \
+        else subcommand
+    run.outcome, run.problem = judge(run, kind, before, snapshot(out), ranks > 1)
     mark = "" if run.ok else f"  [{run.outcome}{': ' + run.problem if run.problem else ''}]"
     log(f"  {shown}: exit {status}, {run.wall_s:.1f} s{mark}")
     return run

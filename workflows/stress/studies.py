@@ -58,6 +58,11 @@ def toml_text(study: dict) -> str:
     """The study (tables as nested dicts, arrays of tables as lists of dicts) as a TOML file."""
     lines: list[str] = []
     for name, table in study.items():
+        if isinstance(table, list):             # a top-level array of tables ([[joints]])
+            for item in table:
+                lines += [f"[[{name}]]", *(f"{k} = {toml_value(v)}" for k, v in item.items()),
+                          ""]
+            continue
         arrays = {k: v for k, v in table.items()
                   if isinstance(v, list) and v and all(isinstance(x, dict) for x in v)}
         lines.append(f"[{name}]")

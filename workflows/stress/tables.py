@@ -146,6 +146,22 @@ COLUMNS: dict[str, list[tuple[str, Callable[[dict], str]]]] = {
         ("F diff.", lambda r: f(r.get("fields_difference"), ".1e")),
         ("sign flips", lambda r: f(r.get("sign_flips"), "d")),
         ("cond(Mr) after", lambda r: f(r.get("cond_mr_after"), ".4g")), *COMMON],
+    "assembly": [
+        ("case", lambda r: r["case"]), ("coordinates", lambda r: f(r.get("coordinates"), ",")),
+        ("steps", lambda r: f(r.get("steps"), ",")), ("complete", lambda r: f(r.get("complete"))),
+        ("energy drift", lambda r: f(r.get("energy_drift_rel"), ".1e")),
+        ("Newton it.", lambda r: f(r.get("newton_iterations_mean"), ".2f")),
+        ("rows dropped", lambda r: f(r.get("dropped_rows"), "d")),
+        ("drive torque peak N·m", lambda r: f(r.get("drive_torque_peak_nm"), ",.0f")),
+        ("big end, main peak kN", lambda r: (
+            f"{r['big_end_peak_n'] / 1e3:.2f}, {r['main_peak_n'] / 1e3:.2f}"
+            if "big_end_peak_n" in r else "")),
+        ("dissipated J", lambda r: f(r.get("damping_dissipation_j"), ".3g")),
+        ("vs run: torque, big end", lambda r: (
+            f"{r['against']}: {f(r['torque_difference_rel'], '.1e')}, "
+            f"{f(r['big_end_difference_rel'], '.1e')}" if "against" in r else "")),
+        ("models reused", lambda r: f(r.get("reused_models"), "d")),
+        ("steps/s", lambda r: f(r.get("steps_per_second"), ",.0f")), *COMMON],
 }
 
 
