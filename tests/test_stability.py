@@ -259,3 +259,36 @@ def test_the_suite_judges_a_system_study_by_its_own_files(tmp_path):
     run = runner.gcms("run", study, tmp_path / "stopped")
     assert (run.exit_status, run.outcome, run.problem) == (1, "incomplete", "")
     assert not readers.strict_json(tmp_path / "stopped" / "summary.json")["complete"]
+
+
+def test_assembly_runs_are_compared_at_the_times_both_recorded(tmp_path):
+    """``probes_assembly.difference`` of a run at half the step (recorded every 8 steps of h/2)
+    against one at h (every 4 of h): the rows at the same times are compared, each run's own
+    last row (its end time) left out; the difference is max_t |a − b| over b's peak (a torque
+    off by 0.05 at one shared time: 0.05 / 2); runs sharing too few times are refused."""
+    import h5py
+
+    from stress.probes_assembly import difference
+
+    def write(name: str, t: np.ndarray, torque: np.ndarray) -> None:
+        (tmp_path / name).mkdir()
+        with h5py.File(tmp_path / name / "system.h5", "w") as f:
+            f["time_s"] = t
+            f["joints/main_0/drive_torque_nm"] = torque
+            f["joints/big_end_1/force_n"] = np.stack([torque, torque, 0 * torque], axis=1)
+
+    h = 5e-5
+    coarse = np.append(np.arange(0, 401) * 4 * h, 0.08005)
+    fine = np.append(np.arange(0, 401) * 8 * (h / 2), 0.080025)
+    base = 2.0 * np.sin(coarse * 300.0)
+    base[1] = 2.0
+    write("h", coarse, base)
+    shifted = 2.0 * np.sin(fine * 300.0)
+    shifted[1] = 2.0 + 0.05
+    shifted[-1] = 99.0                                 # its end row: no partner, not compared
+    write("half", fine, shifted)
+    out = difference(tmp_path / "half", tmp_path / "h")
+    assert out["torque_difference_rel"] == pytest.approx(0.05 / 2.0, rel=1e-9)
+    write("other", coarse + 1e-4, base)
+    with pytest.raises(ValueError, match="share"):
+        difference(tmp_path / "other", tmp_path / "h")

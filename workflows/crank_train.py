@@ -266,17 +266,18 @@ def against_full(runs: dict, spin_up_s: float) -> dict:
     early = runs["full"]["time_s"] <= spin_up_s + 1e-12
     past = not early.all()
     rows: dict[str, dict] = {}
-    for name, entry in full.items():
-        keys = (["force_n"] if name in families(full, "main") + families(full, "big_end")
-                else []) + (["drive_torque_nm"] if "drive_torque_nm" in entry else [])
-        for key in keys:
-            ref = entry[key]
-            row = {"full_peak": peak(ref), "error_rel": error_rel(gcms[name][key], ref),
-                   "rotor_error_rel": error_rel(rotor[name][key], ref)}
-            if past:
-                row["spin_up_error_rel"] = error_rel(gcms[name][key][early], ref[early])
-            rows[name if key == "force_n" else f"{name} drive torque"] = (
-                row | ({"unit": "N·m"} if key == "drive_torque_nm" else {}))
+    forces = families(full, "main") + families(full, "big_end")
+    torques = [name for name, entry in full.items() if "drive_torque_nm" in entry]
+    for name, key in [(n, "force_n") for n in forces] + [(n, "drive_torque_nm") for n in torques]:
+        ref = full[name][key]
+        row = {"full_peak": peak(ref), "error_rel": error_rel(gcms[name][key], ref),
+               "rotor_error_rel": error_rel(rotor[name][key], ref)}
+        if past:
+            row["spin_up_error_rel"] = error_rel(gcms[name][key][early], ref[early])
+        if key == "force_n":
+            rows[name] = row
+        else:
+            rows[f"{name} drive torque"] = row | {"unit": "N·m"}
     return rows
 
 
@@ -367,9 +368,10 @@ def window_tables(result: dict) -> list[str]:
 
 def plot(result: dict, path: Path) -> None:
     """Cylinder 1's big-end force, the total bearing force and the drive torque, flexible and
-    rigid; the window's main-bearing forces, GCMS and (a)."""
+    rigid; over the window of (a), the drive torque and the main-bearing force GCMS is
+    furthest from: (a), GCMS and the rotor basis."""
     plt = pyplot()
-    panels = 4 if "window_series" in result else 3
+    panels = 5 if "window_series" in result else 3
     fig, axes = plt.subplots(panels, 1, figsize=(8, 2.3 * panels))
     flexible, rigid = result["series"]["flexible"], result["series"]["rigid"]
     t = flexible["time_s"] * 1e3
@@ -385,17 +387,20 @@ def plot(result: dict, path: Path) -> None:
     axes[1].set_ylabel("Σ main |F| (kN)")
     axes[2].set_ylabel(f"{drive} drive\ntorque (N·m)")
     axes[2].set_xlabel("t (ms)")
-    if panels == 4:
+    if panels == 5:
         runs = result["window_series"]
-        for k, name in enumerate(families(runs["full"]["joints"], "main")):
-            for label, style in (("full", "-"), ("gcms", ":")):
-                run = runs[label]
-                axes[3].plot(run["time_s"] * 1e3,
-                             np.linalg.norm(run["joints"][name]["force_n"], axis=1) / 1e3,
-                             f"C{k}{style}", lw=1.2 if label == "full" else 2,
-                             label=f"{name} {'(a)' if label == 'full' else 'GCMS'}")
-        axes[3].set_ylabel("main bearings\n|F| (kN)")
-        axes[3].set_xlabel("t (ms): the window of reference (a)")
+        mains = families(runs["full"]["joints"], "main")
+        worst = max(mains, key=lambda name: result["full"][name]["error_rel"])
+        for label, style in (("full", "k-"), ("gcms", "C0-"), ("rotor", "C1:")):
+            run = runs[label]
+            tw, joints = run["time_s"] * 1e3, run["joints"]
+            name = {"full": "(a)", "gcms": "GCMS", "rotor": "GCMS, rotor basis"}[label]
+            axes[3].plot(tw, joints[drive]["drive_torque_nm"], style, lw=1, label=name)
+            axes[4].plot(tw, np.linalg.norm(joints[worst]["force_n"], axis=1) / 1e3, style,
+                         lw=1, label=name)
+        axes[3].set_ylabel(f"{drive} drive\ntorque (N·m)")
+        axes[4].set_ylabel(f"{worst} |F| (kN)")
+        axes[4].set_xlabel("t (ms): the window of reference (a)")
     for ax in axes:
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, ncol=5, loc="upper left")
