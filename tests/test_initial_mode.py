@@ -188,6 +188,16 @@ class NearSquare:
         return group_displacement(self.body, q, "end_x0")
 
 
+def split_round_off(beam: NearSquare) -> float:
+    """How far two solves of one body (the run's and the test's, whose BLAS may take other
+    paths) may put the pair's split (λ₂ − λ₁)/λ₂: each eigenvalue is known to ε λ_max, so the
+    split to 2 ε λ_max/λ₂, ten times that allowed (1.1e-9 … 1.4e-9: λ_max/λ₂ = 2.6e5 … 3.1e5).
+    Measured: 1.0e-11 apart in a fresh clone's two-process run (the relative 1e-6 asked before
+    failed there, 6.8e-6)."""
+    lam = elastic_modes(beam.body)[0]
+    return 10 * 2 * EPS * lam[-1] / beam.pair[1]
+
+
 def near_square_study(folder: Path, eps: float, initial: str, name: str = "study.toml") -> Path:
     path = folder / name
     path.write_text(NEAR_SQUARE.format(width=0.03 * (1.0 + eps), initial=initial))
@@ -233,7 +243,7 @@ def test_near_square_beams_start_alike_without_direction(near_square):
         assert "along y [0.0, 1.0, 0.0], the global axis the cluster reaches farthest" \
             in beam.stderr, beam.stderr
         assert beam.summary["initial_mode"] == {
-            "mode": 1, "cluster": [1, 2], "split": pytest.approx(split, rel=1e-6),
+            "mode": 1, "cluster": [1, 2], "split": pytest.approx(split, abs=split_round_off(beam)),
             "gap": pytest.approx(beam.summary["initial_mode"]["gap"]), "rule": "farthest axis",
             "direction": [0.0, 1.0, 0.0]}
 
