@@ -32,7 +32,7 @@ from beams import BEAM6, BEAM6_SVK  # noqa: E402
 from gcms_fenicsx.config.scene import SceneError, parse_scene  # noqa: E402
 from gcms_fenicsx.dynamics.bodies.body import body_from_reduced  # noqa: E402
 from gcms_fenicsx.dynamics.run.simulate import simulate  # noqa: E402
-from gcms_fenicsx.dynamics.stepping import kernel  # noqa: E402
+from gcms_fenicsx.dynamics.stepping import kernel, kernel_data  # noqa: E402
 from gcms_fenicsx.dynamics.stepping.alpha import AlphaParameters, newton_coefficients  # noqa: E402
 from gcms_fenicsx.files.reduced_model import read_reduced  # noqa: E402
 
@@ -85,6 +85,18 @@ def both(model, table: dict, basis: str = "full", **options):
     return runs
 
 
+def kernel_data_made(monkeypatch) -> list:
+    """The ``kernel_data.StepData`` of every compiled run from here on, in a list."""
+    made: list = []
+
+    def spy(integrator):
+        made.append(kernel_data.step_data(integrator))
+        return made[-1]
+
+    monkeypatch.setattr(kernel, "step_data", spy)
+    return made
+
+
 def differences(a, b) -> dict[str, float]:
     """The largest differences of q, q̇ and λ over the run, each relative to its largest value."""
     out = {}
@@ -110,15 +122,22 @@ def round_off(model, scene_table: dict, traj) -> dict[str, float]:
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("triangle", [False, True], ids=["general", "one triangle"])
 @pytest.mark.parametrize("case", list(CASES))
-def test_compiled_step_is_the_numpy_step(beam6, case):
+def test_compiled_step_is_the_numpy_step(beam6, case, triangle, monkeypatch):
     """Same iterations, trajectory to 1e-12. Measured (q, q̇, λ against their bounds):
     pendulum 8e-15, 2e-10 / 8e-9, 1e-7 / 8e-6; damped and loaded 1e-15, 1e-11 / 3e-9,
     3e-9 / 3e-7; exact 6e-15, 2e-10 / 8e-9, 1e-7 / 8e-6; driven 7e-16, 5e-13 / 1e-10,
     2e-8 / 3e-6; free spin (2.6 iterations a step: slow steps upgrade the matrix) 2e-14,
-    3e-12 / 3e-10; rotor basis 7e-16, 3e-13 / 1e-10, 1e-10 / 2e-8."""
+    3e-12 / 3e-10; rotor basis 7e-16, 3e-13 / 1e-10, 1e-10 / 2e-8. With S₀⁻¹ and the
+    stiffness applied through one triangle (what the kernel does from
+    ``kernel_data.SYMMETRIC_FROM`` coordinates on; the beam has 66) the same bounds hold."""
     table, basis = CASES[case]
+    flags = kernel_data_made(monkeypatch)
+    if triangle:
+        monkeypatch.setattr(kernel_data, "SYMMETRIC_FROM", 0)
     (a, sa), (b, sb) = both(beam6, table, basis)
+    assert [(d.s0_symmetric, d.stiffness_symmetric) for d in flags] == [(triangle, triangle)]
     assert sa["complete"] and sb["complete"], (sa["message"], sb["message"])
     assert sa["basis"] == sb["basis"] == basis
     assert np.array_equal(a.newton_iterations, b.newton_iterations)
@@ -132,14 +151,19 @@ def test_compiled_step_is_the_numpy_step(beam6, case):
 
 
 @pytest.mark.slow
-def test_steps_the_kernel_hands_over_are_the_numpy_steps(beam6):
+@pytest.mark.parametrize("triangle", [False, True], ids=["general", "one triangle"])
+def test_steps_the_kernel_hands_over_are_the_numpy_steps(beam6, triangle, monkeypatch):
     """The SVK law's slow steps are redone by the NumPy step with the exact tangent (the kernel
     hands them over): a free body spinning and vibrating in its first mode, as
-    ``tests/dynamics/test_svk`` steps it, takes the same iterations and path in both."""
+    ``tests/dynamics/test_svk`` steps it, takes the same iterations and path in both — with
+    its 253 coefficients applied as a general matrix and through one triangle."""
     model = read_reduced(BEAM6_SVK)
     table = {"end_time": 0.01, "time_step": 1e-4, "rho_inf": 1.0, "elasticity": "svk",
              "initial": {"angular_velocity": [6.0, 20.0, 10.0], "mode": 1, "amplitude": 1e-3}}
+    monkeypatch.setattr(kernel_data, "SYMMETRIC_FROM", 253 if triangle else 254)
+    flags = kernel_data_made(monkeypatch)
     (a, sa), (b, sb) = both(model, table)
+    assert [d.svk_symmetric for d in flags] == [triangle]
     assert sa["complete"] and sb["complete"]
     assert a.newton_iterations.max() > 3          # some steps needed the tangent
     assert np.array_equal(a.newton_iterations, b.newton_iterations)

@@ -230,7 +230,7 @@ class Body:
         else:
             deformation, force = RankOneUpdate(k1, g1.T / m), RankOneUpdate(g1, k1.T / m)
         return Projections(deformation=deformation, force=force,
-                           stiffness=projected(force, self.stiffness),
+                           stiffness=projected_stiffness(force, deformation, self.stiffness),
                            q0=deformation.dot(self.q0.reshape(-1, 3)),
                            affine_cross=(self.affine @ skew(np.eye(3))).reshape(3, -1))
 
@@ -292,6 +292,22 @@ def projected(force: Any, A: Any) -> Any:
     if isinstance(force, np.ndarray) and isinstance(A, np.ndarray):
         return force.dot(A.reshape(len(force), -1)).reshape(A.shape)
     return ProjectedOperator(A, force)
+
+
+def projected_stiffness(force: Any, deformation: Any, Kr: Any) -> Any:
+    """(Πᵀ ⊗ I3) Kr for ``dot`` with vectors, which is (Πᵀ ⊗ I3) Kr (Π ⊗ I3) (Kr annihilates
+    the translations that Π removes), formed so where both are dense: the symmetric part of
+    the latter, exactly symmetric — the compiled step reads one triangle of it
+    (``kernel_data.SYMMETRIC_FROM``) — and with no net force on either side to round-off of it
+    (Kr's own rows on a translation are zero only to the round-off of the stiffness matrix,
+    which would show in a free body's momentum)."""
+    if not (isinstance(deformation, np.ndarray) and isinstance(Kr, np.ndarray)):
+        return projected(force, Kr)
+    left = projected(force, Kr)
+    n, nf = len(Kr), len(deformation)
+    both = (left.reshape(n, nf, 3).transpose(0, 2, 1) @ deformation).transpose(0, 2, 1)
+    both = both.reshape(n, n)
+    return 0.5 * (both + both.T)
 
 
 def elastic_modes(body: Body) -> tuple[np.ndarray, np.ndarray]:

@@ -33,7 +33,11 @@ less arithmetic, so the two agree to round-off:
   S₀⁻¹ c_i(e_l)ᵀ, and the capacitance matrix follows from their products, made once per run
   (and the change-of-frame rows' once per relinearisation), in O(m²) per step;
 - the change-of-frame term's columns Wᵀ = Hₓ S⁻¹ᵀ and U₂ are constant up to S⁻¹, so S₀⁻¹ times
-  them is made once per run, and a relinearisation solves three columns instead of nine.
+  them is made once per run, and a relinearisation solves three columns instead of nine;
+  its products with Kr are made with (Πᵀ ⊗ I3) Kr, which gives the same B and Ĉᵀ A Ĉ;
+- S₀⁻¹, (Πᵀ ⊗ I3) Kr (the rotor's K̃) and the SVK coefficients, symmetric matrices (made
+  exactly so where they are formed), are applied through one triangle where they are large
+  (``kernel_data.SYMMETRIC_FROM``; ``algebra.product``).
 
 A step the kernel does not finish — it would be redone with the SVK tangent, or it fails (a
 body inverted, Newton not converging, a state no longer finite) — is left as it was before

@@ -5,10 +5,30 @@ from __future__ import annotations
 
 import math
 
+import llvmlite.binding as llvm
 import numpy as np
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.core import cgutils
+from numba.extending import get_cython_function_address, intrinsic
 
 JIT = dict(cache=True, nogil=True, error_model="numpy")
+#: SciPy's BLAS dsymv, by a symbol name the compiled code refers to (resolved when a cached
+#: kernel is loaded, as Numba's own BLAS calls are: no address is baked into the cache).
+SYMMETRIC_PRODUCT = "gcms_fenicsx_dsymv"
+
+
+def _register_symmetric_product() -> None:
+    """Make SYMMETRIC_PRODUCT SciPy's dsymv for the code Numba compiles or loads. Without SciPy
+    the kernel does not run (``stepping.kernel.numba_missing``), so there is nothing to do."""
+    try:
+        address = get_cython_function_address("scipy.linalg.cython_blas", "dsymv")
+    except ImportError:
+        return
+    llvm.add_symbol(SYMMETRIC_PRODUCT, address)
+
+
+_register_symmetric_product()
 #: The polar decomposition's Newton iteration X ← ½ (X + X⁻ᵀ) stops when a step changes X by
 #: at most this many ulps of its largest entry (it converges quadratically: 3–4 steps at
 #: strains of 1e-2), and scales X by |det X|^(−1/3) while a step still changes it by more than
@@ -88,16 +108,58 @@ def mul(X, M):
     return out
 
 
+@intrinsic
+def _symmetric_product(typingctx, A, x, out):
+    """out = A x for a symmetric A (n × n) by BLAS dsymv(uplo, n, 1, A, n, x, 1, 0, out, 1),
+    which reads one triangle of A; the arrays C-contiguous."""
+    if not all(isinstance(t, types.Array) and t.layout == "C" and t.dtype == types.float64
+               for t in (A, x, out)):
+        return None
+
+    def codegen(context, builder, signature, args):
+        bytes_ = ir.IntType(8).as_pointer()
+        i32, f64 = ir.IntType(32), ir.DoubleType()
+        a, xv, yv = (context.make_array(t)(context, builder, v)
+                     for t, v in zip(signature.args, args))
+        n = builder.trunc(cgutils.unpack_tuple(builder, xv.shape, 1)[0], i32)
+
+        def slot(value):
+            return builder.bitcast(cgutils.alloca_once_value(builder, value), bytes_)
+
+        size, unit = slot(n), slot(ir.Constant(i32, 1))
+        dsymv = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(ir.VoidType(), [bytes_] * 10), SYMMETRIC_PRODUCT)
+        builder.call(dsymv, [slot(ir.Constant(ir.IntType(8), ord("U"))), size,
+                             slot(ir.Constant(f64, 1.0)), builder.bitcast(a.data, bytes_), size,
+                             builder.bitcast(xv.data, bytes_), unit, slot(ir.Constant(f64, 0.0)),
+                             builder.bitcast(yv.data, bytes_), unit])
+        return context.get_dummy_value()
+
+    return types.void(A, x, out), codegen
+
+
 @njit(**JIT)
-def gram_product(G, X):
+def product(A, x, out, symmetric):
+    """out = A x; a ``symmetric`` A (``kernel_data.StepData.symmetric``) through one triangle
+    (half the memory a general product streams: at 450 coordinates the two matrices of a
+    Newton iteration then stay in a core's cache)."""
+    if symmetric:
+        _symmetric_product(A, x, out)
+    else:
+        np.dot(A, x, out)
+    return out
+
+
+@njit(**JIT)
+def gram_product(G, X, symmetric=False):
     """G X for G (nf × nf) and X (nf × k, k small), as k matrix-vector products (one BLAS
-    product with k columns is slower at these shapes)."""
+    product with k columns is slower at these shapes); a ``symmetric`` G by :func:`product`."""
     nf, k = X.shape
     XT = np.ascontiguousarray(X.T)
     column = np.empty(nf)
     out = np.empty((nf, k))
     for j in range(k):
-        np.dot(G, XT[j], column)
+        product(G, XT[j], column, symmetric)
         for f in range(nf):
             out[f, j] = column[f]
     return out

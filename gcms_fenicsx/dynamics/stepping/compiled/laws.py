@@ -10,7 +10,8 @@ import numpy as np
 from numba import njit
 
 from gcms_fenicsx.dynamics.stepping.compiled.algebra import (JIT, axial, gram_product, mat3, mul,
-                                                             mv3, polar, remove, skew, tmul)
+                                                             mv3, polar, product, remove, skew,
+                                                             tmul)
 
 COLLAPSED = 1e-12   # rotor.COLLAPSED
 
@@ -70,14 +71,16 @@ def back(rotor, pairs, z, R, phase, out):
 
 
 @njit(**JIT)
-def corotated_state(q, v, H, k1, g1m, q0p, KP, mass_projected, damping, alpha, beta, work):
+def corotated_state(q, v, H, k1, g1m, q0p, KP, mass_projected, damping, alpha, beta, work,
+                    symmetric):
     """corotated.elastic_state with damping.DampingForce.local_force, fused (module
     docstring): (ok, R, U, S⁻¹, Tᵀ(∂V/∂q + f_d) (n,), Q_loc, e, ė, z = (Πᵀ ⊗ I3) Kr (e + β ė)).
     The energy, the dissipation and the elastic part alone follow from these
     (:func:`corotated_energies`, :func:`corotated_parts`). One pass over the fields per quantity: Q_loc = Q R,
     e = Π Q_loc − Π Q0, ė = Π (Q̇ R + Q_loc [ω]×) with ω = S⁻¹ w(Rᵀ Q̇ᵀ H), and the force
     P − H [b]× row by row (h_fᵀ [b]× = h_f × b). Q_loc, e, ė, e + β ė, z and the force are
-    written into the stretch's ``work`` arrays (n each)."""
+    written into the stretch's ``work`` arrays (n each); KP through one triangle if
+    ``symmetric`` (``algebra.product``)."""
     nf = H.shape[0]
     Q, Vd = q.reshape(nf, 3), v.reshape(nf, 3)
     A, VH = np.zeros((3, 3)), np.zeros((3, 3))
@@ -114,7 +117,7 @@ def corotated_state(q, v, H, k1, g1m, q0p, KP, mass_projected, damping, alpha, b
                 x += beta * y
             w[3 * f + j] = x
     z = work[4]
-    np.dot(KP, w, z)
+    product(KP, w, z, symmetric)
     total = z.reshape(nf, 3)
     if damping and alpha != 0.0:
         total = total + alpha * gram_product(mass_projected, rate)
@@ -129,7 +132,7 @@ def corotated_state(q, v, H, k1, g1m, q0p, KP, mass_projected, damping, alpha, b
 
 
 @njit(**JIT)
-def corotated_energies(e, rate, z, KP, mass_projected, damping, alpha, beta, kr):
+def corotated_energies(e, rate, z, KP, mass_projected, damping, alpha, beta, kr, symmetric):
     """V = ½ eᵀ Kr e and ėᵀ D₀ ė from :func:`corotated_state`'s e, ė and z: with damping one
     product more, (Πᵀ ⊗ I3) Kr ė into ``kr`` (no other array made)."""
     e1, z1 = e.ravel(), z
@@ -138,7 +141,7 @@ def corotated_energies(e, rate, z, KP, mass_projected, damping, alpha, beta, kr)
     r1 = rate.ravel()
     energy, dissipation = 0.0, 0.0
     if beta != 0.0:
-        np.dot(KP, r1, kr)
+        product(KP, r1, kr, symmetric)
         for j in range(e1.shape[0]):
             energy += e1[j] * (z1[j] - beta * kr[j])
             dissipation += r1[j] * kr[j]
@@ -174,7 +177,8 @@ def elastic_frame(local, P, H, S_inv):
 
 
 @njit(**JIT)
-def rotor_state(p, v, plane_map, p0, K, translation, weights, pairs, damping, D, work):
+def rotor_state(p, v, plane_map, p0, K, translation, weights, pairs, damping, D, work,
+                symmetric):
     """rotor.rotor_state, with rotor.RotorDamping.local_force: (ok, phase, Tᵀ(∂V/∂p + f_d),
     V, ėᵀ D₀ ė, f, c, s, β, ρ); p_l, e, f, c, s, the force and the damping's ẋ, ė, D₀ ė are
     written into the stretch's ``work`` arrays (n each)."""
@@ -191,7 +195,7 @@ def rotor_state(p, v, plane_map, p0, K, translation, weights, pairs, damping, D,
     for j in range(n):
         e[j] = local[j] - p0[j]
         slope[j] = weights[1, j] / rho
-    np.dot(K, e, f)
+    product(K, e, f, symmetric)
     for j in range(n):                   # c = P Ĵ p_l: each pair times i, the rest and t 0
         c[j] = 0.0
     for j in range(pairs):
@@ -228,8 +232,9 @@ def _turned_into(y, pairs, c, s, out):
 
 
 @njit(**JIT)
-def svk_state(q, H, k1, g1m, reference, A, rows, cols, scale):
-    """svk.SVKLaw.state and svk.svk_state: (ok, R, Tᵀ ∂V/∂q, V)."""
+def svk_state(q, H, k1, g1m, reference, A, rows, cols, scale, symmetric):
+    """svk.SVKLaw.state and svk.svk_state: (ok, R, Tᵀ ∂V/∂q, V); A through one triangle if
+    ``symmetric``."""
     nf = H.shape[0]
     Q = q.reshape(nf, 3)
     Qc = remove(Q, k1, g1m)
@@ -238,7 +243,7 @@ def svk_state(q, H, k1, g1m, reference, A, rows, cols, scale):
     delta = np.empty(count)
     for k in range(count):
         delta[k] = 0.5 * (Pm[rows[k], cols[k]] + Pm[cols[k], rows[k]]) * scale[k]
-    y = A @ delta
+    y = product(A, delta, np.empty(count), symmetric)
     S = np.zeros((nf, nf))
     for k in range(count):
         value = y[k] / scale[k]

@@ -7,15 +7,17 @@ import numpy as np
 from numba import njit
 
 from gcms_fenicsx.dynamics.stepping.compiled.algebra import (JIT, axial, gram_product, lu_factor,
-                                                             lu_solve, mat3, mul, mv3, remove,
-                                                             skew, tmul, xe)
+                                                             lu_solve, mat3, mul, mv3, product,
+                                                             remove, skew, tmul, xe)
 from gcms_fenicsx.dynamics.stepping.compiled.laws import back
 from gcms_fenicsx.dynamics.stepping.kernel_data import ROTOR
 
 @njit(**JIT)
-def apply_A(X, K, M, gram, rotor, gamma_p, alpha, beta):
-    """damping.RayleighDamping.frame_operator: A X = γ'α Mr X + (1 + γ'β) Kr X."""
-    out = (1.0 + gamma_p * beta) * gram_product(K, X)
+def apply_A(X, K, M, gram, rotor, gamma_p, alpha, beta, symmetric):
+    """damping.RayleighDamping.frame_operator: A X = γ'α Mr X + (1 + γ'β) K X, K = Kr or an
+    operator with the same products (:func:`field_frame_update`), by one triangle if
+    ``symmetric``."""
+    out = (1.0 + gamma_p * beta) * gram_product(K, X, symmetric)
     if alpha != 0.0:
         if rotor:
             out += (gamma_p * alpha) * gram_product(M, X)
@@ -27,11 +29,14 @@ def apply_A(X, K, M, gram, rotor, gamma_p, alpha, beta):
 
 
 @njit(**JIT)
-def field_frame_update(U, S_inv, local, P, b, gradient, H, k1, g1m, K, gram, gamma_p,
-                        alpha, beta):
+def field_frame_update(U, S_inv, local, P, b, gradient, H, k1, g1m, KP, gram, gamma_p,
+                       alpha, beta, symmetric):
     """corotated.local_frame_update: the first three columns of X_loc, B + U₃, and Y_loc of the
     rank-9 change-of-frame term. X_loc's other six columns, Wᵀ = Hₓ S⁻¹ᵀ and U₂, are constant
-    up to S⁻¹, so S₀⁻¹ times them is formed once (``StepData.frame_solves``; :func:`_relinearise`)."""
+    up to S⁻¹, so S₀⁻¹ times them is formed once (``StepData.frame_solves``; :func:`_relinearise`).
+    Kr's products are made with KP = (Πᵀ ⊗ I3) Kr, the law's matrix (kept in cache between
+    steps): B = Πᵀ A Ĉ is the same (Πᵀ is a projector) and so is Ĉᵀ A Ĉ, since Π Ĉ = Ĉ (Ĉ's
+    fields are cross products of Π Q_loc's, whose g1-weighted sum is zero)."""
     nf = H.shape[0]
     n = 3 * nf
     W_T = np.empty((n, 3))                       # row (f, a): S⁻¹ (h_f × e_a)
@@ -47,7 +52,7 @@ def field_frame_update(U, S_inv, local, P, b, gradient, H, k1, g1m, K, gram, gam
             for j in range(3):
                 C_hat[3 * f + j, k] = xe(PL[f], k, j)
                 U3[3 * f + j, k] = -xe(gradient[f], k, j)
-    AC = apply_A(C_hat, K, K, gram, False, gamma_p, alpha, beta)
+    AC = apply_A(C_hat, KP, KP, gram, False, gamma_p, alpha, beta, symmetric)
     AC9 = AC.reshape(nf, 9)
     B = (AC9 - np.outer(g1m, k1 @ AC9)).reshape(n, 3)    # Πᵀ A Ĉ
     Yl = tmul(local, P)
@@ -93,7 +98,7 @@ def relinearise(d, X, Y, S_inv):
     BT = d.border_exact[m:]
     XT = np.ascontiguousarray(X.T)
     for k in range(XT.shape[0]):
-        BT[k] = d.s0_inverse @ XT[k]
+        product(d.s0_inverse, XT[k], BT[k], d.s0_symmetric)
     if d.law != ROTOR:
         SH, SU = d.frame_solves[:3], d.frame_solves[3:]
         for j in range(3):
@@ -152,13 +157,13 @@ def prepare(exact, U, world, pad, W, index, rank):
 
 
 @njit(**JIT)
-def solve(bordered, a, lu, piv, r, g, R, phase, rotor, pairs, s0_inverse, rows_all, solves_all,
-          index, rank, scratch):
+def solve(bordered, a, lu, piv, r, g, R, phase, rotor, pairs, s0_inverse, symmetric, rows_all,
+          solves_all, index, rank, scratch):
     """BorderedKKT.solve: (Δq, Δλ) for the residuals r (frame R) and g, the bordered rows
     applied through the units (:func:`prepare`): two products with 3 nv (+ rank) rows. Δq is
     written into ``scratch`` (``step.SCRATCH``), which also holds the products."""
     z = scratch[0]
-    np.dot(s0_inverse, r, z)
+    product(s0_inverse, r, z, symmetric)
     if bordered:
         m = a.shape[0]
         u = rows_all.shape[0] - rank

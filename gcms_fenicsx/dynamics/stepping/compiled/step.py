@@ -136,17 +136,19 @@ def _law_state(d, q, v, scratch):
     if d.law == COROTATED:
         ok, R, Us, S_inv, gradient, local, e, rate, z = corotated_state(
             q, v, d.affine, d.unit, d.unit_dual, d.q0_projected, d.projected,
-            d.mass_projected, d.damping, d.damping_alpha, d.damping_beta, scratch[11])
+            d.mass_projected, d.damping, d.damping_alpha, d.damping_beta, scratch[11],
+            d.stiffness_symmetric)
         return (ok, R, still, gradient, 0.0, 0.0, Us, S_inv, local, e, rate, z,
                 none1, none1, none1, 0.0, 1.0)
     if d.law == ROTOR:
         ok, phase, gradient, energy, dissipation, f, c, slope, beta, rho = rotor_state(
             q, v, d.plane_map, d.q0, d.stiffness, d.translation, d.weights, d.pairs, d.damping,
-            d.rotor_damping, scratch[11])
+            d.rotor_damping, scratch[11], d.stiffness_symmetric)
         return (ok, np.eye(3), phase, gradient, energy, dissipation, none2, none2, none3,
                 none3, none3, none1, f, c, slope, beta, rho)
     ok, R, gradient, energy = svk_state(q, d.affine, d.unit, d.unit_dual, d.svk_reference,
-                                        d.svk_quadratic, d.svk_rows, d.svk_cols, d.svk_scale)
+                                        d.svk_quadratic, d.svk_rows, d.svk_cols, d.svk_scale,
+                                        d.svk_symmetric)
     return (ok, R, still, gradient, energy, 0.0, none2, none2, none3, none3, none3, none1,
             none1, none1, none1, 0.0, 1.0)
 
@@ -158,15 +160,15 @@ def _relinearised(d, state):
     _, _, _, _, _, _, Us, S_inv, local, e, rate, z, f, c, slope, beta, rho = state
     if d.law == ROTOR:
         Ac = apply_A(c.reshape(d.n, 1), d.stiffness, d.mass, d.gram, True, d.gamma_p,
-                     d.damping_alpha, d.damping_beta).ravel()
+                     d.damping_alpha, d.damping_beta, d.stiffness_symmetric).ravel()
         X, Y = rotor_frame_update(f, c, slope, beta, rho, d.turn, d.weights, Ac)
     else:
         P = corotated_parts(e, rate, z, d.projected, d.mass_projected, d.damping,
                             d.damping_alpha, d.damping_beta)[2]
         b, gradient = elastic_frame(local, P, d.affine, S_inv)
         X, Y = field_frame_update(Us, S_inv, local, P, b, gradient, d.affine, d.unit,
-                                  d.unit_dual, d.stiffness, d.gram, d.gamma_p,
-                                  d.damping_alpha, d.damping_beta)
+                                  d.unit_dual, d.projected, d.gram, d.gamma_p,
+                                  d.damping_alpha, d.damping_beta, d.stiffness_symmetric)
     relinearise(d, X, Y, S_inv)
 
 
@@ -267,8 +269,8 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc, scratch):
             r = residual(rotor, d.pairs, y, gradient, R, phase, prepared, R_lin, phase_lin,
                          scratch[3])
             dq, dlam = solve(bordered, a, lu, piv, r, g, R_lin, phase_lin, rotor, d.pairs,
-                             d.s0_inverse, d.rows_all, d.solves_all, d.vector_index, d.rank,
-                             scratch)
+                             d.s0_inverse, d.s0_symmetric, d.rows_all, d.solves_all,
+                             d.vector_index, d.rank, scratch)
             mass_dq = _mass_product(rotor, dq, d.mass, d.gram, scratch[12])
             delta = math.sqrt(abs(dq @ mass_dq) / d.total_mass)
             if upgrade or every or not delta > d.upgrade_rate * previous or not corotated:
@@ -297,7 +299,7 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc, scratch):
     if converged and energies and d.law == COROTATED:
         energy, dissipation = corotated_energies(state[9], state[10], state[11], d.projected,
                                                  d.mass_projected, d.damping, d.damping_alpha,
-                                                 d.damping_beta, scratch[13])
+                                                 d.damping_beta, scratch[13], d.stiffness_symmetric)
     if not converged:
         _restore(d, Z, lam, mass_acc, policy, start, kept_rows)
     return converged, iteration, energy, dissipation, f_ext, U
