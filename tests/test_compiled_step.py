@@ -30,6 +30,7 @@ pytest.importorskip("numba", reason="the compiled step needs Numba (scripts/setu
 
 from beams import BEAM6, BEAM6_SVK  # noqa: E402
 from gcms_fenicsx.config.scene import SceneError, parse_scene  # noqa: E402
+from gcms_fenicsx.dynamics.bodies import body as body_module  # noqa: E402
 from gcms_fenicsx.dynamics.bodies.body import body_from_reduced  # noqa: E402
 from gcms_fenicsx.dynamics.run.simulate import simulate  # noqa: E402
 from gcms_fenicsx.dynamics.stepping import kernel, kernel_data  # noqa: E402
@@ -168,6 +169,19 @@ def test_steps_the_kernel_hands_over_are_the_numpy_steps(beam6, triangle, monkey
     assert a.newton_iterations.max() > 3          # some steps needed the tangent
     assert np.array_equal(a.newton_iterations, b.newton_iterations)
     assert differences(a, b)["q"] <= 1e-12
+
+
+def test_a_body_of_many_fields_is_stepped_by_numpy(beam6, monkeypatch):
+    """A body of more than ``body.DENSE_PROJECTION_FIELDS`` fields keeps Π as rank-one updates,
+    which the kernel does not take: "auto" runs the NumPy step and says why (before, packing
+    the kernel's data failed on them). The limit lowered to 10 makes the beam (22 fields) one."""
+    monkeypatch.setattr(body_module, "DENSE_PROJECTION_FIELDS", 10)
+    scene = parse_scene({"joints": [PIN], "gravity": GRAVITY, "end_time": 0.002,
+                         "time_step": 1e-4})
+    _, summary = simulate(beam6, scene)
+    assert summary["complete"], summary["message"]
+    assert summary["kernel"]["name"] == "numpy"
+    assert "22 fields, whose projections are kept as rank-one" in summary["kernel"]["reason"]
 
 
 @pytest.mark.slow

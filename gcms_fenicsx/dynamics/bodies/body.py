@@ -230,7 +230,7 @@ class Body:
         else:
             deformation, force = RankOneUpdate(k1, g1.T / m), RankOneUpdate(g1, k1.T / m)
         return Projections(deformation=deformation, force=force,
-                           stiffness=projected_stiffness(force, deformation, self.stiffness),
+                           stiffness=projected_stiffness(force, self.stiffness, k1, g1 / m),
                            q0=deformation.dot(self.q0.reshape(-1, 3)),
                            affine_cross=(self.affine @ skew(np.eye(3))).reshape(3, -1))
 
@@ -294,18 +294,22 @@ def projected(force: Any, A: Any) -> Any:
     return ProjectedOperator(A, force)
 
 
-def projected_stiffness(force: Any, deformation: Any, Kr: Any) -> Any:
-    """(Πᵀ ⊗ I3) Kr for ``dot`` with vectors, which is (Πᵀ ⊗ I3) Kr (Π ⊗ I3) (Kr annihilates
-    the translations that Π removes), formed so where both are dense: the symmetric part of
-    the latter, exactly symmetric — the compiled step reads one triangle of it
-    (``kernel_data.SYMMETRIC_FROM``) — and with no net force on either side to round-off of it
-    (Kr's own rows on a translation are zero only to the round-off of the stiffness matrix,
-    which would show in a free body's momentum)."""
-    if not (isinstance(deformation, np.ndarray) and isinstance(Kr, np.ndarray)):
-        return projected(force, Kr)
+def projected_stiffness(force: Any, Kr: Any, k1: np.ndarray, g1m: np.ndarray) -> Any:
+    """(Πᵀ ⊗ I3) Kr for ``dot`` with the vectors it is applied to, which lie in the range of
+    Π ⊗ I3 (e = Π Q_loc − Π Q0, and the change of frame's Ĉ): there it equals
+    (Πᵀ ⊗ I3) Kr (Π ⊗ I3), Π = I − k1 g1ᵀ/m (``g1m`` = g1/m, columns), and where both are dense
+    it is formed so, as that matrix's symmetric part: exactly symmetric — the compiled step
+    reads one triangle of it (``kernel_data.SYMMETRIC_FROM``) — and with no net force on either
+    side to round-off of it (½(Πᵀ Kr + Kr Π) would not do: Kr's rows on a translation are zero
+    only to the stiffness matrix's round-off, which shows in a free body's momentum). The
+    right factor is the rank-one update it is: O(n²)."""
     left = projected(force, Kr)
-    n, nf = len(Kr), len(deformation)
-    both = (left.reshape(n, nf, 3).transpose(0, 2, 1) @ deformation).transpose(0, 2, 1)
+    if not (isinstance(force, np.ndarray) and isinstance(Kr, np.ndarray)):
+        return left
+    n = len(Kr)
+    fields = left.reshape(n, len(k1), 3)
+    on_unit = np.tensordot(fields, k1.ravel(), axes=(1, 0))          # (n, 3)
+    both = fields - on_unit[:, None, :] * g1m.reshape(1, -1, 1)
     both = both.reshape(n, n)
     return 0.5 * (both + both.T)
 

@@ -117,6 +117,10 @@ def unsupported(integrator: Any) -> str | None:
         return "a sparse body (the full-order model)"
     if not hasattr(integrator.linear.solve0, "__self__"):
         return "another factorisation than the dense inverse"
+    full = body.full if isinstance(body, RotorBody) else body
+    if not isinstance(full.projections.stiffness, np.ndarray):
+        return (f"a body of {full.field_count} fields, whose projections are kept as rank-one "
+                "updates, not matrices")
     if integrator.law_kind is None:
         return "another elastic law than co-rotated or Saint Venant–Kirchhoff"
     return None

@@ -111,7 +111,8 @@ def mul(X, M):
 @intrinsic
 def _symmetric_product(typingctx, A, x, out):
     """out = A x for a symmetric A (n × n) by BLAS dsymv(uplo, n, 1, A, n, x, 1, 0, out, 1),
-    which reads one triangle of A; the arrays C-contiguous."""
+    which reads one triangle of A; the arrays C-contiguous, n taken from x, so A must be
+    n × n, out of length n and not x (:func:`product` checks)."""
     if not all(isinstance(t, types.Array) and t.layout == "C" and t.dtype == types.float64
                for t in (A, x, out)):
         return None
@@ -144,6 +145,9 @@ def product(A, x, out, symmetric):
     (half the memory a general product streams: at 450 coordinates the two matrices of a
     Newton iteration then stay in a core's cache)."""
     if symmetric:
+        n = x.shape[0]
+        if A.shape[0] != n or A.shape[1] != n or out.shape[0] != n or n == 0:
+            raise ValueError("product: A must be n × n and out of length n > 0")
         _symmetric_product(A, x, out)
     else:
         np.dot(A, x, out)
