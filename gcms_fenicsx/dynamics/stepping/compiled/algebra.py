@@ -141,7 +141,8 @@ def _symmetric_product(typingctx, A, x, out):
 
 @njit(**JIT)
 def product(A, x, out, symmetric):
-    """out = A x; a ``symmetric`` A (``kernel_data.StepData.symmetric``) through one triangle
+    """out = A x; a ``symmetric`` A (``kernel_data.StepData``'s ``s0_symmetric``,
+    ``stiffness_symmetric``, ``svk_symmetric``) through one triangle
     (half the memory a general product streams: at 450 coordinates the two matrices of a
     Newton iteration then stay in a core's cache)."""
     if symmetric:
