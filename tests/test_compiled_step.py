@@ -22,6 +22,7 @@ import os
 import subprocess
 import sys
 from dataclasses import replace
+from typing import NamedTuple
 
 import numpy as np
 import pytest
@@ -169,6 +170,32 @@ def test_steps_the_kernel_hands_over_are_the_numpy_steps(beam6, triangle, monkey
     assert a.newton_iterations.max() > 3          # some steps needed the tangent
     assert np.array_equal(a.newton_iterations, b.newton_iterations)
     assert differences(a, b)["q"] <= 1e-12
+
+
+class _Held(NamedTuple):
+    count: int
+    a: np.ndarray
+    inner: tuple
+
+
+def test_unowned_views_are_the_callers_arrays():
+    """``compiled.unowned`` (a stretch reads its arguments so, without reference counts) gives
+    the very arrays of a named tuple nested with tuples: a write through a view shows in the
+    caller's array, the strides and the other entries are kept."""
+    from numba import njit
+
+    from gcms_fenicsx.dynamics.stepping.compiled.unowned import unowned
+
+    @njit
+    def write_through(held):
+        view = unowned(held)
+        view.a[1, 2] = 7.0
+        view.inner[1][0] = -1.0
+        return view.count, view.a.strides[0], view.inner[0].sum(), view.a.sum()
+
+    held = _Held(5, np.zeros((3, 4)), (np.arange(4.0), np.ones(2)))
+    assert write_through(held) == (5, 32, 6.0, 7.0)
+    assert held.a[1, 2] == 7.0 and held.inner[1][0] == -1.0
 
 
 def test_a_body_of_many_fields_is_stepped_by_numpy(beam6, monkeypatch):

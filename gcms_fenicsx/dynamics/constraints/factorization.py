@@ -29,11 +29,10 @@ EPS = float(np.finfo(float).eps)
 
 def dense_factorization(A: np.ndarray) -> Solve:
     """x = A⁻¹ b by one mat-vec with the explicit inverse (A small and dense): its bound ``dot``.
-    The inverse of a symmetric A is made symmetric (its two triangles differ by the LU's
-    round-off, 1e-13 of its largest entry), so that the compiled step, which reads one
-    triangle of it (``kernel_data.SYMMETRIC_FROM``), applies the very matrix this one does —
-    where its symmetric part is an inverse to ``INVERSE_DEFECT_LIMIT`` too (an ill-conditioned
-    A keeps the LU's inverse: cond 1e8 … 6e11 left 1e-6 … 2e-4 in the symmetric part).
+    The inverse of a symmetric A is made exactly symmetric (:func:`symmetric_inverses`), so
+    that the compiled step, which reads one triangle of it (``kernel_data.SYMMETRIC_FROM``),
+    applies the very matrix this one does — where that is an inverse to
+    ``INVERSE_DEFECT_LIMIT`` too (else the LU's inverse is kept).
 
     Raises :class:`SingularMatrixError` if A is singular or so ill-conditioned that A A⁻¹ is
     not I to ``INVERSE_DEFECT_LIMIT``; the caller knows what A is and says why
@@ -48,10 +47,27 @@ def dense_factorization(A: np.ndarray) -> Solve:
     if not defect < INVERSE_DEFECT_LIMIT:
         raise SingularMatrixError(defect, np.linalg.cond(A))
     if np.array_equal(A, A.T):
-        symmetric = 0.5 * (inv + inv.T)
-        if inverse_defect(A, symmetric) < INVERSE_DEFECT_LIMIT:
-            inv = symmetric
+        for symmetric in symmetric_inverses(A, inv):
+            if inverse_defect(A, symmetric) < INVERSE_DEFECT_LIMIT:
+                return symmetric.dot
     return inv.dot
+
+
+def symmetric_inverses(A: np.ndarray, X: np.ndarray) -> Iterator[np.ndarray]:
+    """Exactly symmetric inverses of the symmetric A, the LU's inverse X given: X's symmetric
+    part, then — A positive definite — L⁻ᵀ L⁻¹ from A = L Lᵀ. The first is as good as X where X
+    is accurate from both sides; but the LU's inverse is accurate from the right (|A X − I| ~
+    cond(A) ε), not always from the left: for an S₀ of cond 1.1e9 (the stiff pendulum at 450
+    coordinates) |A X − I| = 5.9e-12, |X A − I| = 5.5e-6, and its symmetric part leaves
+    |A X − I| at 2.7e-6, the Cholesky factor's inverse at 2.6e-7 (cond(A) ε from both sides:
+    at most 0.9× the symmetric part's on the matrices of tests/dynamics/test_factorization)."""
+    yield 0.5 * (X + X.T)
+    try:
+        inverse_factor = np.linalg.inv(np.linalg.cholesky(A))
+    except np.linalg.LinAlgError:
+        return
+    product = inverse_factor.T @ inverse_factor
+    yield 0.5 * (product + product.T)
 
 
 def inverse_defect(A: np.ndarray, inverse: np.ndarray) -> float:

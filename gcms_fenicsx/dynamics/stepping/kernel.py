@@ -186,12 +186,13 @@ class CompiledStepper:
         self.integrator, self.data, self.compiled = integrator, data, kernel_module()
         self.policy = np.zeros(3, dtype=np.int64)
         self.last = np.zeros(3)          # last step's iterations, its energy; iterations sum
+        self.work: tuple | None = None   # the stretches' work arrays, made by warm_up
 
     def warm_up(self, recorder: Any, state: State) -> tuple[float, bool | None]:
         """Compile the kernel (or load it from the cache) by a stretch of no steps, under
-        :func:`compile_lock`: (seconds, whether it came from the cache; None if this process
-        had it already). A cache that does not load is removed and the kernel compiled again;
-        a second failure is raised."""
+        :func:`compile_lock`, and make the run's work arrays: (seconds, whether it came from the
+        cache; None if this process had it already). A cache that does not load is removed and
+        the kernel compiled again; a second failure is raised."""
         run = self.compiled.run_stretch
         stats = run.stats
         hits, misses = sum(stats.cache_hits.values()), sum(stats.cache_misses.values())
@@ -200,10 +201,12 @@ class CompiledStepper:
                 self.integrator.h, self.policy, self.last)
         with compile_lock():
             try:
-                run(*args)
+                self.work = self.compiled.work_arrays(self.data)
+                run(*args, self.work)
             except Exception:    # a damaged cache fails to load: drop it and compile afresh
                 shutil.rmtree(cache_folder(), ignore_errors=True)
-                run(*args)
+                self.work = self.compiled.work_arrays(self.data)
+                run(*args, self.work)
         seconds = time.perf_counter() - start
         if sum(stats.cache_hits.values()) > hits:
             return seconds, True
@@ -220,7 +223,8 @@ class CompiledStepper:
         Z, lam = state.Z.copy(), state.lam.copy()
         self.last[2] = 0.0
         status, taken, t = self.compiled.run_stretch(self.data, recorder.raw, Z, lam, state.t,
-                                                     index, stop, it.h, policy, self.last)
+                                                     index, stop, it.h, policy, self.last,
+                                                     self.work)
         it.policy.frame_terms, it.policy.kept_steps = bool(policy[0]), int(policy[1])
         it.linear.kept = bool(policy[2])
         if not taken:

@@ -1,7 +1,8 @@
 """The generalized-α step compiled by Numba: a stretch of steps in one call (docs/design.md §8.5,
 docs/compiled-step.md). The modules: ``algebra`` (3 × 3 and field-array loops, the polar
-decomposition, LU), ``laws`` (frames and elastic laws), ``newton`` (the bordered Newton system)
-and ``step`` (the step and the stretch). Nothing here is imported unless the kernel runs
+decomposition, LU), ``laws`` (frames and elastic laws), ``newton`` (the bordered Newton system),
+``forcing`` (drives' directions and external forces in time), ``step`` (the step and the
+stretch) and ``unowned`` (the stretch's arrays read without reference counts). Nothing here is imported unless the kernel runs
 (``stepping.kernel``): the package imports Numba.
 
 

@@ -157,8 +157,11 @@ def product(A, x, out, symmetric):
 
 @njit(**JIT)
 def gram_product(G, X, symmetric=False):
-    """G X for G (nf × nf) and X (nf × k, k small), as k matrix-vector products (one BLAS
-    product with k columns is slower at these shapes); a ``symmetric`` G by :func:`product`."""
+    """G X for G (nf × nf) and X (nf × k, k small): one BLAS product (at k = 3 it takes 0.3 µs
+    at nf = 33, 5.1 µs at 150, against 0.8 and 7.0 for three matrix-vector products); a
+    ``symmetric`` G through one triangle, by k products (:func:`product`)."""
+    if not symmetric:
+        return np.dot(G, np.ascontiguousarray(X))
     nf, k = X.shape
     XT = np.ascontiguousarray(X.T)
     column = np.empty(nf)

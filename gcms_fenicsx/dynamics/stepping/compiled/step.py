@@ -1,7 +1,6 @@
 """The compiled generalized-α step (``integrator.GeneralizedAlpha.step``) and a stretch of them
-with the recorder's accounts (``recorder.Recorder.step``); the time functions of drives and
-loads. Numba. The package's docstring says what differs from the NumPy step and when a step
-is handed over to it."""
+with the recorder's accounts (``recorder.Recorder.step``). Numba. The package's docstring says
+what differs from the NumPy step and when a step is handed over to it."""
 from __future__ import annotations
 
 import math
@@ -9,7 +8,8 @@ import math
 import numpy as np
 from numba import njit
 
-from gcms_fenicsx.dynamics.stepping.compiled.algebra import JIT, gram_product
+from gcms_fenicsx.dynamics.stepping.compiled.algebra import JIT
+from gcms_fenicsx.dynamics.stepping.compiled.forcing import directions_at, external_force
 from gcms_fenicsx.dynamics.stepping.compiled.laws import (corotated_energies, corotated_parts,
                                                           corotated_state,
                                                           elastic_frame, residual, rotor_state,
@@ -18,6 +18,7 @@ from gcms_fenicsx.dynamics.stepping.compiled.newton import (apply_A, field_frame
                                                             frame_capacitance, prepare,
                                                             relinearise, rotor_frame_update,
                                                             solve)
+from gcms_fenicsx.dynamics.stepping.compiled.unowned import unowned
 from gcms_fenicsx.dynamics.stepping.kernel_data import COROTATED, ROTOR, SVK
 
 #: Status of a stretch: it reached its last step, the recorder's block is full, or the next
@@ -29,35 +30,7 @@ DONE, BLOCK_FULL, HANDED_OVER = 0, 1, 2
 #: law's own work arrays (11); Mr Δq (12); Cᵀλ (13); f_ext and the loads' factors (14, 15);
 #: what types a step's linearisation before it is made: I, a, pivots, kept rows (16–19); the
 #: bordered system's right-hand side and solution (20); g (21); Z, λ, Mr q̈ and the policy at
-#: the step's start (22–25).
-
-
-@njit(**JIT)
-def _drive_angle(W, T, cycloidal, t):
-    if t >= T:
-        return W * (t - 0.5 * T)
-    if cycloidal:
-        c = 2.0 * math.pi / T
-        return W / T * (0.5 * t * t + (math.cos(c * t) - 1.0) / (c * c))
-    c = math.pi / T
-    return 0.5 * W * (t - math.sin(c * t) / c)
-
-
-@njit(**JIT)
-def _directions_at(t, directions, drive_rows, drive_vectors, drive_params):
-    """u_i(t): the rows a drive turns turned by its angle (Constraints.directions_at)."""
-    if drive_rows.shape[0] == 0:
-        return directions
-    U = directions.copy()
-    for j in range(drive_rows.shape[0]):
-        theta = _drive_angle(drive_params[j, 0], drive_params[j, 1], drive_params[j, 2] == 1.0,
-                             t)
-        c, s = math.cos(theta), math.sin(theta)
-        i = drive_rows[j]
-        for l in range(3):
-            U[i, l] = (c * drive_vectors[j, 0, l] + s * drive_vectors[j, 1, l]
-                       + (1.0 - c) * drive_vectors[j, 2, l])
-    return U
+#: the step's start (22–25); Mr q̈ (26).
 
 
 @njit(**JIT)
@@ -85,34 +58,14 @@ def _add_rows_transposed(U, lam, units, index, w, product, y):
 
 
 @njit(**JIT)
-def _external_force(t, gravity, load_vectors, load_params, factors, out):
-    """ExternalForces.__call__: f_g + Σ_j s_j(t) b_j (into ``out``; ``factors``: work)."""
-    L = load_params.shape[0]
-    if L == 0:
-        return gravity
-    for j in range(L):
-        kind, T = load_params[j, 0], load_params[j, 1]
-        freq, phase = load_params[j, 2], load_params[j, 3]
-        if kind == 1.0:
-            factors[j] = min(t / T, 1.0)
-        elif kind == 2.0:
-            wave = math.sin(2.0 * math.pi * freq * t + phase)
-            factors[j] = wave if t >= T else 0.5 * (1.0 - math.cos(math.pi * t / T)) * wave
-        else:
-            factors[j] = 1.0
-    np.dot(factors, load_vectors, out)
-    for j in range(out.shape[0]):
-        out[j] += gravity[j]
-    return out
-
-
-@njit(**JIT)
 def _mass_product(rotor, x, mass, gram, out):
     """Mr x: G ⊗ I3 on GCMS coordinates, Mp on rotor coordinates (into ``out``)."""
     if rotor:
         np.dot(mass, x, out)
-        return out
-    return gram_product(gram, x.reshape(gram.shape[0], 3)).ravel()
+    else:
+        nf = gram.shape[0]
+        np.dot(gram, x.reshape(nf, 3), out.reshape(nf, 3))
+    return out
 
 
 @njit(**JIT)
@@ -124,7 +77,7 @@ def _scratch(n, rows, m, loads, k):
              np.empty(n), np.empty(n), np.empty(n)), np.empty(n), np.empty(n), np.empty(n),
             np.empty(loads), np.eye(3), np.empty((m, 3)), np.empty(0, dtype=np.int64),
             np.empty((0, n)), np.empty(k), np.empty(m), np.empty((4, n)), np.empty(m),
-            np.empty(n), np.empty(3, dtype=np.int64))
+            np.empty(n), np.empty(3, dtype=np.int64), np.empty(n))
 
 
 @njit(**JIT)
@@ -215,11 +168,15 @@ def _linearised(d, state, exact, relinearise, policy, U, kept_rows):
 
 @njit(**JIT)
 def _predicted(d, Z, Z0):
-    """Z ← P Z0 (``alpha.step_matrices``)."""
+    """Z ← P Z0 (``alpha.step_matrices``): row by row, P's entries and the rows held apart so
+    that the loop over coordinates is vectorised."""
     P = d.predictor
+    a, b, c, e = Z0[0], Z0[1], Z0[2], Z0[3]
     for i in range(4):
-        for j in range(Z.shape[1]):
-            Z[i, j] = P[i, 0] * Z0[0, j] + P[i, 1] * Z0[1, j] + P[i, 2] * Z0[2, j] + P[i, 3] * Z0[3, j]
+        p0, p1, p2, p3 = P[i, 0], P[i, 1], P[i, 2], P[i, 3]
+        z = Z[i]
+        for j in range(z.shape[0]):
+            z[j] = p0 * a[j] + p1 * b[j] + p2 * c[j] + p3 * e[j]
 
 
 @njit(**JIT)
@@ -229,14 +186,13 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc, scratch):
     ``mass_acc`` is Mr q̈ of Z, kept so. Not converged: Z, λ, Mr q̈, the policy
     ([frame_terms, kept_steps, kept]) and the kept rank-9 rows as they were, for the NumPy
     step to take the step."""
-    n = d.n
     rotor = d.law == ROTOR
     start = _saved(Z, lam, mass_acc, policy, scratch)
     kept_rows = scratch[19]
     _predicted(d, Z, start[0])
-    U = _directions_at(t1, d.directions, d.drive_rows, d.drive_vectors, d.drive_params)
+    U = directions_at(t1, d.directions, d.drive_rows, d.drive_vectors, d.drive_params)
     units = d.rows_all[:d.rows_all.shape[0] - d.rank]
-    f_ext = _external_force(t1, d.gravity, d.load_vectors, d.load_params, scratch[15],
+    f_ext = external_force(t1, d.gravity, d.load_vectors, d.load_params, scratch[15],
                             scratch[14])
     corotated = d.law != SVK
     relin = d.exact_mode or policy[1] >= d.reuse_steps       # JacobianPolicy.start_step
@@ -280,14 +236,7 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc, scratch):
         if (not corotated and not every and delta > d.upgrade_rate * previous
                 and delta > d.tangent_rate * previous) or not delta < math.inf:
             break                          # redone with the SVK tangent, or failed
-        u0, u1, u2, u3 = d.update[0], d.update[1], d.update[2], d.update[3]
-        for j in range(n):               # Z += u Δq, Mr q̈ += β' Mr Δq
-            x = dq[j]
-            Z[0, j] += u0 * x
-            Z[1, j] += u1 * x
-            Z[2, j] += u2 * x
-            Z[3, j] += u3 * x
-            mass_acc[j] += u2 * mass_dq[j]
+        _update(d.update, dq, mass_dq, Z, mass_acc)
         lam += dlam
         tol = d.tolerance
         if delta <= tol or (delta * delta <= tol * (previous - delta)
@@ -303,6 +252,18 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc, scratch):
     if not converged:
         _restore(d, Z, lam, mass_acc, policy, start, kept_rows)
     return converged, iteration, energy, dissipation, f_ext, U
+
+
+@njit(**JIT)
+def _update(u, dq, mass_dq, Z, mass_acc):
+    """Z += u Δq, Mr q̈ += β' Mr Δq (β' = u₂), row by row (vectorised, as :func:`_predicted`)."""
+    for i in range(4):
+        ui, z = u[i], Z[i]
+        for j in range(z.shape[0]):
+            z[j] += ui * dq[j]
+    u2 = u[2]
+    for j in range(mass_acc.shape[0]):
+        mass_acc[j] += u2 * mass_dq[j]
 
 
 @njit(**JIT)
@@ -331,19 +292,33 @@ def _restore(d, Z, lam, mass_acc, policy, start, kept_rows):
 
 
 @njit(**JIT)
-def run_stretch(d, rec, Z, lam, t, index, stop, h, policy, last):
+def work_arrays(d):
+    """The work arrays of a run's stretches, made once by their caller (``kernel``)."""
+    return _scratch(d.n, d.rows_all.shape[0], d.m, d.load_params.shape[0],
+                    d.pad_exact.shape[0])
+
+
+@njit(**JIT)
+def run_stretch(d, rec, Z, lam, t, index, stop, h, policy, last, scratch):
     """Steps index + 1 … stop from (t, Z, λ) at step ``index``, accounting for and recording
-    each (recorder.Recorder.step / record) into ``rec``. Returns (status, steps taken, the
-    time reached); ``last`` (3,) gets the last step's Newton iterations and elastic energy, and
-    adds the stretch's iterations to its third entry."""
+    each (recorder.Recorder.step / record) into ``rec``, ``scratch`` the run's
+    :func:`work_arrays`. Returns (status, steps taken, the time reached); ``last`` (3,) gets
+    the last step's Newton iterations and elastic energy, and adds the stretch's iterations to
+    its third entry. Every array argument is the caller's for the whole call: the stretch
+    reads them :func:`unowned.unowned`."""
+    return _stretch(unowned(d), unowned(rec), unowned(Z), unowned(lam), t, index, stop, h,
+                    unowned(policy), unowned(last), unowned(scratch))
+
+
+@njit(**JIT)
+def _stretch(d, rec, Z, lam, t, index, stop, h, policy, last, scratch):
+    """:func:`run_stretch` on arrays without owners."""
     counters = rec.counters
     taken = 0
     if policy[2] and d.rank:
         frame_capacitance(d)        # the kept rows may have been set by the NumPy step
     # Mr q̈, kept up to date by every correction's Mr Δq (the predictor keeps q̈)
-    mass_acc = _mass_product(d.law == ROTOR, Z[2], d.mass, d.gram, np.empty(d.n))
-    scratch = _scratch(d.n, d.rows_all.shape[0], d.m, d.load_params.shape[0],
-                       d.pad_exact.shape[0])
+    mass_acc = _mass_product(d.law == ROTOR, Z[2], d.mass, d.gram, scratch[26])
     while index < stop:
         t1 = t + h
         converged, iterations, energy, dissipation, f_ext, U = _step(d, Z, lam, t1, policy,
