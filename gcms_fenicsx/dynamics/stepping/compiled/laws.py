@@ -11,7 +11,7 @@ from numba import njit
 
 from gcms_fenicsx.dynamics.stepping.compiled.algebra import (JIT, axial, gram_product, mat3, mul,
                                                              mv3, polar, product, remove, skew,
-                                                             tmul)
+                                                             tmul, tmul_into)
 
 COLLAPSED = 1e-12   # rotor.COLLAPSED
 
@@ -72,29 +72,34 @@ def back(rotor, pairs, z, R, phase, out):
 
 @njit(**JIT)
 def corotated_state(q, v, H, k1, g1m, q0p, KP, mass_projected, damping, alpha, beta, work,
-                    symmetric):
+                    small, symmetric):
     """corotated.elastic_state with damping.DampingForce.local_force, fused (module
     docstring): (ok, R, U, S⁻¹, Tᵀ(∂V/∂q + f_d) (n,), Q_loc, e, ė, z = (Πᵀ ⊗ I3) Kr (e + β ė)).
     The energy, the dissipation and the elastic part alone follow from these
     (:func:`corotated_energies`, :func:`corotated_parts`). One pass over the fields per quantity: Q_loc = Q R,
     e = Π Q_loc − Π Q0, ė = Π (Q̇ R + Q_loc [ω]×) with ω = S⁻¹ w(Rᵀ Q̇ᵀ H), and the force
     P − H [b]× row by row (h_fᵀ [b]× = h_f × b). Q_loc, e, ė, e + β ė, z and the force are
-    written into the stretch's ``work`` arrays (n each); KP through one triangle if
-    ``symmetric`` (``algebra.product``)."""
+    written into the stretch's ``work`` arrays (n each), the 3 × 3 ones into ``small``
+    (``step.SMALL``: R, U and S⁻¹ are views of it); KP through one triangle if ``symmetric``
+    (``algebra.product``)."""
     nf = H.shape[0]
     Q, Vd = q.reshape(nf, 3), v.reshape(nf, 3)
-    A, VH = np.zeros((3, 3)), np.zeros((3, 3))
+    A, VH = small[5], small[6]
+    A[:, :] = 0.0
+    VH[:, :] = 0.0
     for f in range(nf):                          # Qᵀ H and Q̇ᵀ H in one pass
         for i in range(3):
             x, y = Q[f, i], Vd[f, i]
             for j in range(3):
                 A[i, j] += x * H[f, j]
                 VH[i, j] += y * H[f, j]
-    R, U, S_inv, ok = polar(A)
-    Om = skew(mv3(S_inv, axial(mat3(R, VH, True)))) if damping else np.zeros((3, 3))
+    R, U, S_inv, ok = polar(A, small[:5])
+    Om = skew(mv3(S_inv, axial(mat3(R, VH, True)))) if damping else small[7]   # damping only
     local, rate = work[0].reshape(nf, 3), work[2].reshape(nf, 3)
     rate[:, :] = 0.0
-    c, cr = np.zeros(3), np.zeros(3)
+    c, cr, b = small[9, 0], small[9, 1], small[9, 2]
+    c[:] = 0.0
+    cr[:] = 0.0
     for f in range(nf):                          # Q_loc = Q R, Q̇ R + Q_loc [ω]×, their means
         for j in range(3):
             x = Q[f, 0] * R[0, j] + Q[f, 1] * R[1, j] + Q[f, 2] * R[2, j]
@@ -121,7 +126,7 @@ def corotated_state(q, v, H, k1, g1m, q0p, KP, mass_projected, damping, alpha, b
     total = z.reshape(nf, 3)
     if damping and alpha != 0.0:
         total = total + alpha * gram_product(mass_projected, rate)
-    b = mv3(S_inv, axial(tmul(local, total)))
+    _frame_couple(S_inv, tmul_into(local, total, small[8]), b)
     gradient = work[5]
     for f in range(nf):          # P_f − h_fᵀ [b]× = P_f − h_f × b
         h0, h1, h2 = H[f, 0], H[f, 1], H[f, 2]
@@ -129,6 +134,15 @@ def corotated_state(q, v, H, k1, g1m, q0p, KP, mass_projected, damping, alpha, b
         gradient[3 * f + 1] = total[f, 1] - (h2 * b[0] - h0 * b[2])
         gradient[3 * f + 2] = total[f, 2] - (h0 * b[1] - h1 * b[0])
     return ok, R, U, S_inv, gradient, local, e, rate, z
+
+
+@njit(**JIT)
+def _frame_couple(S_inv, T, out):
+    """b = S⁻¹ w(T), T = Q_locᵀ P (corotated.frame_force), into ``out`` (3,)."""
+    w0, w1, w2 = T[2, 1] - T[1, 2], T[0, 2] - T[2, 0], T[1, 0] - T[0, 1]
+    for i in range(3):
+        out[i] = S_inv[i, 0] * w0 + S_inv[i, 1] * w1 + S_inv[i, 2] * w2
+    return out
 
 
 @njit(**JIT)
@@ -232,9 +246,9 @@ def _turned_into(y, pairs, c, s, out):
 
 
 @njit(**JIT)
-def svk_state(q, H, k1, g1m, reference, A, rows, cols, scale, symmetric):
+def svk_state(q, H, k1, g1m, reference, A, rows, cols, scale, small, symmetric):
     """svk.SVKLaw.state and svk.svk_state: (ok, R, Tᵀ ∂V/∂q, V); A through one triangle if
-    ``symmetric``."""
+    ``symmetric``; R a view of ``small`` (``step.SMALL``)."""
     nf = H.shape[0]
     Q = q.reshape(nf, 3)
     Qc = remove(Q, k1, g1m)
@@ -250,5 +264,5 @@ def svk_state(q, H, k1, g1m, reference, A, rows, cols, scale, symmetric):
         S[rows[k], cols[k]] = value
         S[cols[k], rows[k]] = value
     force = remove(2.0 * (S @ Qc), g1m, k1)
-    R, _, _, ok = polar(tmul(Q, H))
+    R, _, _, ok = polar(tmul_into(Q, H, small[5]), small[:5])
     return ok, R, mul(force, R).ravel(), 0.5 * (delta @ y)

@@ -8,7 +8,7 @@ import math
 import numpy as np
 from numba import njit
 
-from gcms_fenicsx.dynamics.stepping.compiled.algebra import JIT
+from gcms_fenicsx.dynamics.stepping.compiled.algebra import JIT, axpy
 from gcms_fenicsx.dynamics.stepping.compiled.forcing import directions_at, external_force
 from gcms_fenicsx.dynamics.stepping.compiled.laws import (corotated_energies, corotated_parts,
                                                           corotated_state,
@@ -30,7 +30,9 @@ DONE, BLOCK_FULL, HANDED_OVER = 0, 1, 2
 #: law's own work arrays (11); Mr Δq (12); Cᵀλ (13); f_ext and the loads' factors (14, 15);
 #: what types a step's linearisation before it is made: I, a, pivots, kept rows (16–19); the
 #: bordered system's right-hand side and solution (20); g (21); Z, λ, Mr q̈ and the policy at
-#: the step's start (22–25); Mr q̈ (26).
+#: the step's start (22–25); Mr q̈ (26); the laws' 3 × 3 work matrices (SMALL: the polar
+#: decomposition's five, Qᵀ H, Q̇ᵀ H, [ω]×, Q_locᵀ P, and three vectors as rows of the last).
+SMALL = 27
 
 
 @njit(**JIT)
@@ -77,7 +79,7 @@ def _scratch(n, rows, m, loads, k):
              np.empty(n), np.empty(n), np.empty(n)), np.empty(n), np.empty(n), np.empty(n),
             np.empty(loads), np.eye(3), np.empty((m, 3)), np.empty(0, dtype=np.int64),
             np.empty((0, n)), np.empty(k), np.empty(m), np.empty((4, n)), np.empty(m),
-            np.empty(n), np.empty(3, dtype=np.int64), np.empty(n))
+            np.empty(n), np.empty(3, dtype=np.int64), np.empty(n), np.empty((10, 3, 3)))
 
 
 @njit(**JIT)
@@ -90,7 +92,7 @@ def _law_state(d, q, v, scratch):
         ok, R, Us, S_inv, gradient, local, e, rate, z = corotated_state(
             q, v, d.affine, d.unit, d.unit_dual, d.q0_projected, d.projected,
             d.mass_projected, d.damping, d.damping_alpha, d.damping_beta, scratch[11],
-            d.stiffness_symmetric)
+            scratch[SMALL], d.stiffness_symmetric)
         return (ok, R, still, gradient, 0.0, 0.0, Us, S_inv, local, e, rate, z,
                 none1, none1, none1, 0.0, 1.0)
     if d.law == ROTOR:
@@ -101,7 +103,7 @@ def _law_state(d, q, v, scratch):
                 none3, none3, none1, f, c, slope, beta, rho)
     ok, R, gradient, energy = svk_state(q, d.affine, d.unit, d.unit_dual, d.svk_reference,
                                         d.svk_quadratic, d.svk_rows, d.svk_cols, d.svk_scale,
-                                        d.svk_symmetric)
+                                        scratch[SMALL], d.svk_symmetric)
     return (ok, R, still, gradient, energy, 0.0, none2, none2, none3, none3, none3, none1,
             none1, none1, none1, 0.0, 1.0)
 
@@ -168,15 +170,18 @@ def _linearised(d, state, exact, relinearise, policy, U, kept_rows):
 
 @njit(**JIT)
 def _predicted(d, Z, Z0):
-    """Z ← P Z0 (``alpha.step_matrices``): row by row, P's entries and the rows held apart so
-    that the loop over coordinates is vectorised."""
+    """Z ← P Z0 (``alpha.step_matrices``), row by row on an unsigned index (vectorised, as
+    ``algebra.axpy``)."""
     P = d.predictor
     a, b, c, e = Z0[0], Z0[1], Z0[2], Z0[3]
+    n = np.uintp(Z.shape[1])
     for i in range(4):
         p0, p1, p2, p3 = P[i, 0], P[i, 1], P[i, 2], P[i, 3]
         z = Z[i]
-        for j in range(z.shape[0]):
+        j = np.uintp(0)
+        while j < n:
             z[j] = p0 * a[j] + p1 * b[j] + p2 * c[j] + p3 * e[j]
+            j += np.uintp(1)
 
 
 @njit(**JIT)
@@ -217,8 +222,9 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc, scratch):
         prepared = iteration == 1 or every
         upgrade = False
         while True:           # once, and again when a slow iteration upgrades the matrix
-            if prepared:
-                R_lin, phase_lin = R, phase
+            if prepared:             # R is a view of the law's work matrices: copied
+                R_lin[:, :] = R
+                phase_lin = phase
                 bordered, a, lu, piv, kept_rows = _linearised(d, state, exact,
                                                               relin or every, policy, U,
                                                               kept_rows)
@@ -256,14 +262,10 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc, scratch):
 
 @njit(**JIT)
 def _update(u, dq, mass_dq, Z, mass_acc):
-    """Z += u Δq, Mr q̈ += β' Mr Δq (β' = u₂), row by row (vectorised, as :func:`_predicted`)."""
+    """Z += u Δq, Mr q̈ += β' Mr Δq (β' = u₂), row by row."""
     for i in range(4):
-        ui, z = u[i], Z[i]
-        for j in range(z.shape[0]):
-            z[j] += ui * dq[j]
-    u2 = u[2]
-    for j in range(mass_acc.shape[0]):
-        mass_acc[j] += u2 * mass_dq[j]
+        axpy(u[i], dq, Z[i])
+    axpy(u[2], mass_dq, mass_acc)
 
 
 @njit(**JIT)
