@@ -112,7 +112,12 @@ def tmul_into(X, Y, out):
 @njit(**JIT)
 def mul(X, M):
     """X M for X (k × 3), M (3 × 3): k × 3."""
-    out = np.empty((X.shape[0], 3))
+    return mul_into(X, M, np.empty((X.shape[0], 3)))
+
+
+@njit(**JIT)
+def mul_into(X, M, out):
+    """X M for X (k × 3), M (3 × 3), into ``out`` (k × 3)."""
     for f in range(X.shape[0]):
         x0, x1, x2 = X[f, 0], X[f, 1], X[f, 2]
         for j in range(3):
@@ -286,10 +291,9 @@ def polar(A, work):
 
 
 @njit(**JIT)
-def lu_factor(A):
-    """A = P L U in place (partial pivoting): the pivots."""
+def lu_factor(A, piv):
+    """A = P L U in place (partial pivoting): the pivots, into ``piv`` (k,)."""
     k = A.shape[0]
-    piv = np.empty(k, dtype=np.int64)
     for c in range(k):
         p = c
         big = abs(A[c, c])

@@ -7,8 +7,8 @@ import numpy as np
 from numba import njit
 
 from gcms_fenicsx.dynamics.stepping.compiled.algebra import (JIT, axial, gram_product, lu_factor,
-                                                             lu_solve, mat3, mul, mv3, product,
-                                                             remove, skew, tmul, xe)
+                                                             lu_solve, mat3, mul_into, mv3,
+                                                             product, remove, skew, tmul, xe)
 from gcms_fenicsx.dynamics.stepping.compiled.laws import back
 from gcms_fenicsx.dynamics.stepping.kernel_data import ROTOR
 
@@ -123,17 +123,20 @@ def frame_capacitance(d):
 
 
 @njit(**JIT)
-def prepare(exact, U, world, pad, W, index, rank):
+def prepare(exact, U, world, pad, W, index, rank, work):
     """BorderedKKT.prepare (the rank-9 rows already relinearised where asked), with the
     constraint rows never formed: in the frame, row i is G_i = Σ_l a_il c_i(e_l) and its
     solve B_iᵀ = Σ_l a_il S₀⁻¹ c_i(e_l)ᵀ (a_i = Rᵀ u_i, either kind of coordinates), so the
     capacitance matrix G B + [0 0; 0 I] follows from W (:func:`_frame_capacitance`) in
-    O(m²): (a, its LU factors with pivots)."""
+    O(m²): (a, its LU factors with pivots), in the stretch's ``work`` (``step.BORDERED``: a,
+    then room for the capacitance matrix, G W and the pivots), kept until the next prepare."""
     m = index.shape[0]
     u = W.shape[0] - rank
-    a = mul(U, world)
-    cap = pad.copy()
-    aW = np.empty((m, W.shape[1]))            # a_i · W[3k_i + l, :] over l: the rows of G W
+    k, columns = pad.shape[0], W.shape[1]
+    a = mul_into(U, world, work[0])
+    cap = work[1][:k * k].reshape(k, k)
+    cap[:, :] = pad
+    aW = work[2][:m * columns].reshape(m, columns)   # a_i · W[3k_i + l, :]: the rows of G W
     for i in range(m):
         ki = 3 * index[i]
         for c in range(W.shape[1]):
@@ -152,7 +155,7 @@ def prepare(exact, U, world, pad, W, index, rank):
         for r in range(rank):
             for s in range(rank):
                 cap[m + r, m + s] -= W[u + r, u + s]
-    piv = lu_factor(cap)
+    piv = lu_factor(cap, work[3][:k])
     return a, cap, piv
 
 

@@ -31,8 +31,10 @@ DONE, BLOCK_FULL, HANDED_OVER = 0, 1, 2
 #: what types a step's linearisation before it is made: I, a, pivots, kept rows (16–19); the
 #: bordered system's right-hand side and solution (20); g (21); Z, λ, Mr q̈ and the policy at
 #: the step's start (22–25); Mr q̈ (26); the laws' 3 × 3 work matrices (SMALL: the polar
-#: decomposition's five, Qᵀ H, Q̇ᵀ H, [ω]×, Q_locᵀ P, and three vectors as rows of the last).
-SMALL = 27
+#: decomposition's five, Qᵀ H, Q̇ᵀ H, [ω]×, Q_locᵀ P, and three vectors as rows of the last);
+#: the bordered system's a, capacitance matrix, G W and pivots (BORDERED, ``newton.prepare``);
+#: the rotor law's frame, I (29).
+SMALL, BORDERED = 27, 28
 
 
 @njit(**JIT)
@@ -79,7 +81,9 @@ def _scratch(n, rows, m, loads, k):
              np.empty(n), np.empty(n), np.empty(n)), np.empty(n), np.empty(n), np.empty(n),
             np.empty(loads), np.eye(3), np.empty((m, 3)), np.empty(0, dtype=np.int64),
             np.empty((0, n)), np.empty(k), np.empty(m), np.empty((4, n)), np.empty(m),
-            np.empty(n), np.empty(3, dtype=np.int64), np.empty(n), np.empty((10, 3, 3)))
+            np.empty(n), np.empty(3, dtype=np.int64), np.empty(n), np.empty((10, 3, 3)),
+            (np.empty((m, 3)), np.empty(k * k), np.empty(m * rows), np.empty(k, dtype=np.int64)),
+            np.eye(3))
 
 
 @njit(**JIT)
@@ -99,7 +103,7 @@ def _law_state(d, q, v, scratch):
         ok, phase, gradient, energy, dissipation, f, c, slope, beta, rho = rotor_state(
             q, v, d.plane_map, d.q0, d.stiffness, d.translation, d.weights, d.pairs, d.damping,
             d.rotor_damping, scratch[11], d.stiffness_symmetric)
-        return (ok, np.eye(3), phase, gradient, energy, dissipation, none2, none2, none3,
+        return (ok, scratch[29], phase, gradient, energy, dissipation, none2, none2, none3,
                 none3, none3, none1, f, c, slope, beta, rho)
     ok, R, gradient, energy = svk_state(q, d.affine, d.unit, d.unit_dual, d.svk_reference,
                                         d.svk_quadratic, d.svk_rows, d.svk_cols, d.svk_scale,
@@ -148,10 +152,11 @@ def _inertia_and_rows(U, lam, q, mass_acc, f_ext, units, index, targets, y, w, p
 
 
 @njit(**JIT)
-def _linearised(d, state, exact, relinearise, policy, U, kept_rows):
+def _linearised(d, state, exact, relinearise, policy, U, kept_rows, work):
     """BorderedKKT.prepare at the law state ``state``: the rank-9 (rank-2) rows relinearised
     where asked (or never made; the rows they replace kept in ``kept_rows`` for a hand-over),
-    then the bordered system's factors. (bordered, a, LU, pivots, kept_rows)."""
+    then the bordered system's factors (in ``work``: ``newton.prepare``). (bordered, a, LU,
+    pivots, kept_rows)."""
     m = d.m
     if exact and (relinearise or policy[2] == 0):
         if kept_rows.shape[0] == 0:
@@ -164,7 +169,7 @@ def _linearised(d, state, exact, relinearise, policy, U, kept_rows):
     R, phase, P = state[1], state[2], d.projectors
     world = P[0] + phase[0] * P[1] + phase[1] * P[2] if d.law == ROTOR else R
     a, lu, piv = prepare(exact, U, world, d.pad_exact if exact else d.pad_plain,
-                         d.unit_capacitance, d.vector_index, d.rank)
+                         d.unit_capacitance, d.vector_index, d.rank, work)
     return bordered, a, lu, piv, kept_rows
 
 
@@ -227,7 +232,7 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc, scratch):
                 phase_lin = phase
                 bordered, a, lu, piv, kept_rows = _linearised(d, state, exact,
                                                               relin or every, policy, U,
-                                                              kept_rows)
+                                                              kept_rows, scratch[BORDERED])
             r = residual(rotor, d.pairs, y, gradient, R, phase, prepared, R_lin, phase_lin,
                          scratch[3])
             dq, dlam = solve(bordered, a, lu, piv, r, g, R_lin, phase_lin, rotor, d.pairs,
@@ -334,10 +339,15 @@ def _stretch(d, rec, Z, lam, t, index, stop, h, policy, last, scratch):
         last[2] += iterations
         v = Z[1]
         if rec.energy:
-            load = (f_ext - d.gravity) @ v if rec.loads else 0.0
-            units = d.rows_all[:d.rows_all.shape[0] - d.rank]
-            constraint = (-(lam @ _row_values(U, units @ v, d.vector_index, scratch[21]))
-                          if d.m else 0.0)
+            load = 0.0                       # (f_ext − f_g) · q̇ and −λ · C q̇
+            if rec.loads:
+                for j in range(v.shape[0]):
+                    load += (f_ext[j] - d.gravity[j]) * v[j]
+            constraint = 0.0
+            if d.m:
+                units = d.rows_all[:d.rows_all.shape[0] - d.rank]
+                units_v = np.dot(units, v, scratch[4][:units.shape[0]])
+                constraint = -(lam @ _row_values(U, units_v, d.vector_index, scratch[21]))
             if counters[1]:
                 hh = rec.half_step
                 rec.work[0] += hh * (rec.power[0] + load)
