@@ -181,7 +181,8 @@ class _Held(NamedTuple):
 def test_unowned_views_are_the_callers_arrays():
     """``compiled.unowned`` (a stretch reads its arguments so, without reference counts) gives
     the very arrays of a named tuple nested with tuples: a write through a view shows in the
-    caller's array, the strides and the other entries are kept."""
+    caller's array, the strides and the other entries are kept; and a view of it has no owner
+    (returned to Python, its base is None, where a counted view's is Numba's owner)."""
     from numba import njit
 
     from gcms_fenicsx.dynamics.stepping.compiled.unowned import unowned
@@ -193,9 +194,17 @@ def test_unowned_views_are_the_callers_arrays():
         view.inner[1][0] = -1.0
         return view.count, view.a.strides[0], view.inner[0].sum(), view.a.sum()
 
+    @njit
+    def views(a):
+        return a[1:], unowned(a)[1:]
+
     held = _Held(5, np.zeros((3, 4)), (np.arange(4.0), np.ones(2)))
     assert write_through(held) == (5, 32, 6.0, 7.0)
     assert held.a[1, 2] == 7.0 and held.inner[1][0] == -1.0
+    x = np.arange(4.0)
+    counted, uncounted = views(x)      # x is held here, so the uncounted view stays valid
+    assert counted.base is not None and uncounted.base is None, "the view has no owner"
+    assert uncounted[0] == 1.0
 
 
 def test_a_body_of_many_fields_is_stepped_by_numpy(beam6, monkeypatch):

@@ -49,6 +49,21 @@ def test_the_cholesky_inverse_serves_where_the_lus_symmetric_part_does_not():
     assert inverse_defect(A, cholesky) <= np.linalg.cond(A) * EPS, inverse_defect(A, cholesky)
 
 
+def test_dense_factorization_takes_the_cholesky_inverse_when_the_lus_is_one_sided(monkeypatch):
+    """``dense_factorization`` itself, given the right-only inverse of the test above by the LU:
+    it applies L⁻ᵀ L⁻¹ (exactly symmetric, equal to what ``symmetric_inverses`` gives second),
+    not the LU's inverse nor its symmetric part."""
+    A = positive_definite(200, 1e9, 1.0, seed=2)
+    F = 1e-12 * np.random.default_rng(4).standard_normal(A.shape)
+    right_only = np.linalg.inv(A) + np.linalg.solve(A, F)
+    inverse = np.linalg.inv
+    monkeypatch.setattr(np.linalg, "inv", lambda M: right_only if M is A else inverse(M))
+    applied = dense_factorization(A).__self__
+    cholesky = list(symmetric_inverses(A, right_only))[1]
+    assert np.array_equal(applied, cholesky)
+    assert np.array_equal(applied, applied.T)
+
+
 def test_a_symmetric_matrix_that_is_not_positive_definite_keeps_its_lu_inverse():
     """No Cholesky factor: the symmetric part or, failing it, the LU's inverse itself (measured
     1.3e-14 against cond(A) ε 2.1e-13)."""

@@ -2,8 +2,8 @@
 docs/compiled-step.md). The modules: ``algebra`` (3 × 3 and field-array loops, the polar
 decomposition, LU), ``laws`` (frames and elastic laws), ``newton`` (the bordered Newton system),
 ``forcing`` (drives' directions and external forces in time), ``step`` (the step and the
-stretch) and ``unowned`` (the stretch's arrays read without reference counts). Nothing here is imported unless the kernel runs
-(``stepping.kernel``): the package imports Numba.
+stretch) and ``unowned`` (the stretch's arrays read without reference counts). Nothing here is
+imported unless the kernel runs (``stepping.kernel``): the package imports Numba.
 
 
 This is the NumPy step of ``integrator.GeneralizedAlpha.step`` written out for Numba, on the

@@ -76,9 +76,9 @@ def corotated_state(q, v, H, k1, g1m, q0p, KP, mass_projected, damping, alpha, b
     """corotated.elastic_state with damping.DampingForce.local_force, fused (module
     docstring): (ok, R, U, S⁻¹, Tᵀ(∂V/∂q + f_d) (n,), Q_loc, e, ė, z = (Πᵀ ⊗ I3) Kr (e + β ė)).
     The energy, the dissipation and the elastic part alone follow from these
-    (:func:`corotated_energies`, :func:`corotated_parts`). One pass over the fields per quantity: Q_loc = Q R,
-    e = Π Q_loc − Π Q0, ė = Π (Q̇ R + Q_loc [ω]×) with ω = S⁻¹ w(Rᵀ Q̇ᵀ H), and the force
-    P − H [b]× row by row (h_fᵀ [b]× = h_f × b). Q_loc, e, ė, e + β ė, z and the force are
+    (:func:`corotated_energies`, :func:`corotated_parts`). One pass over the fields per
+    quantity: Q_loc = Q R, e = Π Q_loc − Π Q0, ė = Π (Q̇ R + Q_loc [ω]×) with
+    ω = S⁻¹ w(Rᵀ Q̇ᵀ H), and the force P − H [b]× row by row (h_fᵀ [b]× = h_f × b). Q_loc, e, ė, e + β ė, z and the force are
     written into the stretch's ``work`` arrays (n each), the 3 × 3 ones into ``small``
     (``step.SMALL``: R, U and S⁻¹ are views of it); KP through one triangle if ``symmetric``
     (``algebra.product``)."""

@@ -93,7 +93,7 @@ def rotor_frame_update(f, c, slope, beta, rho, turn, weights, Ac):
 def relinearise(d, X, Y, S_inv):
     """BorderedKKT._relinearise: (S₀⁻¹ X_loc)ᵀ and Y_loc into the exact system's last rows; X
     is X_loc (rotor) or its first three columns (GCMS coordinates, with S⁻¹ for the next
-    three). Then the capacitance blocks they change (:func:`_frame_capacitance`)."""
+    three). Then the capacitance blocks they change (:func:`frame_capacitance`)."""
     m = d.m
     BT = d.border_exact[m:]
     XT = np.ascontiguousarray(X.T)
@@ -127,7 +127,7 @@ def prepare(exact, U, world, pad, W, index, rank, work):
     """BorderedKKT.prepare (the rank-9 rows already relinearised where asked), with the
     constraint rows never formed: in the frame, row i is G_i = Σ_l a_il c_i(e_l) and its
     solve B_iᵀ = Σ_l a_il S₀⁻¹ c_i(e_l)ᵀ (a_i = Rᵀ u_i, either kind of coordinates), so the
-    capacitance matrix G B + [0 0; 0 I] follows from W (:func:`_frame_capacitance`) in
+    capacitance matrix G B + [0 0; 0 I] follows from W (:func:`frame_capacitance`) in
     O(m²): (a, its LU factors with pivots), in the stretch's ``work`` (``step.BORDERED``: a,
     then room for the capacitance matrix, G W and the pivots), kept until the next prepare."""
     m = index.shape[0]
@@ -164,7 +164,7 @@ def solve(bordered, a, lu, piv, r, g, R, phase, rotor, pairs, s0_inverse, symmet
           solves_all, index, rank, scratch):
     """BorderedKKT.solve: (Δq, Δλ) for the residuals r (frame R) and g, the bordered rows
     applied through the units (:func:`prepare`): two products with 3 nv (+ rank) rows. Δq is
-    written into ``scratch`` (``step.SCRATCH``), which also holds the products."""
+    written into ``scratch`` (``step._scratch``), which also holds the products."""
     z = scratch[0]
     product(s0_inverse, r, z, symmetric)
     if bordered:

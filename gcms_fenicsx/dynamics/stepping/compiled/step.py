@@ -24,16 +24,17 @@ from gcms_fenicsx.dynamics.stepping.kernel_data import COROTATED, ROTOR, SVK
 #: Status of a stretch: it reached its last step, the recorder's block is full, or the next
 #: step is handed over to the NumPy step.
 DONE, BLOCK_FULL, HANDED_OVER = 0, 1, 2
-#: The work arrays a stretch allocates once (:func:`_scratch`): S₀⁻¹ r and the correction
-#: (0), the solves' product (1), Δq (2), the residual (3), the units' products and weights
-#: (4, 5), Mr q̈ − f_ext + Cᵀλ (6); empty arrays that type the laws' unused state (7–10); the
-#: law's own work arrays (11); Mr Δq (12); Cᵀλ (13); f_ext and the loads' factors (14, 15);
-#: what types a step's linearisation before it is made: I, a, pivots, kept rows (16–19); the
-#: bordered system's right-hand side and solution (20); g (21); Z, λ, Mr q̈ and the policy at
-#: the step's start (22–25); Mr q̈ (26); the laws' 3 × 3 work matrices (SMALL: the polar
-#: decomposition's five, Qᵀ H, Q̇ᵀ H, [ω]×, Q_locᵀ P, and three vectors as rows of the last);
-#: the bordered system's a, capacitance matrix, G W and pivots (BORDERED, ``newton.prepare``);
-#: the rotor law's frame, I (29).
+#: The work arrays of a run's stretches, made once (:func:`work_arrays`): S₀⁻¹ r and the
+#: correction (0), the solves' product (1), Δq (2), the residual (3), the units' products and
+#: weights (4, 5), Mr q̈ − f_ext + Cᵀλ (6); empty arrays that type the laws' unused state
+#: (7–10); the law's own work arrays (11); Mr Δq (12); Cᵀλ (13); f_ext and the loads' factors
+#: (14, 15); the linearisation's R (a copy), then what types a step's a, pivots and kept rows
+#: before they are made (16–19); the bordered system's right-hand side and solution (20); g
+#: (21); Z, λ, Mr q̈ and the policy at the step's start (22–25); Mr q̈ (26); the laws' 3 × 3
+#: work matrices (SMALL: the polar decomposition's five, Qᵀ H, Q̇ᵀ H, a stand-in for [ω]×
+#: (made anew with damping), Q_locᵀ P, and three vectors as rows of the last); the bordered
+#: system's a, capacitance matrix, G W and pivots (BORDERED, ``newton.prepare``); the rotor
+#: law's frame, I (29).
 SMALL, BORDERED = 27, 28
 
 
