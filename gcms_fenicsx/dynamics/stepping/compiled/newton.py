@@ -161,27 +161,28 @@ def prepare(exact, U, world, pad, W, index, rank, work):
 
 @njit(**JIT)
 def solve(bordered, a, lu, piv, r, g, R, phase, rotor, pairs, s0_inverse, symmetric, rows_all,
-          solves_all, index, rank, scratch):
+          solves_all, index, rank, work):
     """BorderedKKT.solve: (Δq, Δλ) for the residuals r (frame R) and g, the bordered rows
     applied through the units (:func:`prepare`): two products with 3 nv (+ rank) rows. Δq is
-    written into ``scratch`` (``step._scratch``), which also holds the products."""
-    z = scratch[0]
+    written into ``work`` (the stretch's work arrays 0, 1, 2, 4, 5, 9 and 20:
+    ``step._scratch``), which also holds the products."""
+    z = work[0]
     product(s0_inverse, r, z, symmetric)
     if bordered:
         m = a.shape[0]
         u = rows_all.shape[0] - rank
         k = lu.shape[0]
         rows = u + k - m
-        Gz = scratch[4][:rows]
+        Gz = work[3][:rows]
         np.dot(rows_all[:rows], z, Gz)
-        b = scratch[20][:k]
+        b = work[6][:k]
         for i in range(m):
             ki = 3 * index[i]
             b[i] = a[i, 0] * Gz[ki] + a[i, 1] * Gz[ki + 1] + a[i, 2] * Gz[ki + 2] - g[i]
         for r_ in range(k - m):
             b[m + r_] = Gz[u + r_]
         sol = lu_solve(lu, piv, b)           # in place: Δλ is a view of the work array
-        w = scratch[5][:rows]
+        w = work[4][:rows]
         w[:] = 0.0
         for i in range(m):
             ki = 3 * index[i]
@@ -189,10 +190,10 @@ def solve(bordered, a, lu, piv, r, g, R, phase, rotor, pairs, s0_inverse, symmet
                 w[ki + l] += sol[i] * a[i, l]
         for r_ in range(k - m):
             w[u + r_] = sol[m + r_]
-        t = scratch[1]
+        t = work[1]
         np.dot(w, solves_all[:rows], t)
         z += t
         dlam = sol[:m]
     else:
-        dlam = scratch[9]
-    return back(rotor, pairs, z, R, phase, scratch[2]), dlam
+        dlam = work[5]
+    return back(rotor, pairs, z, R, phase, work[2]), dlam

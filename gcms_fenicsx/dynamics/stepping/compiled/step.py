@@ -175,10 +175,9 @@ def _linearised(d, state, exact, relinearise, policy, U, kept_rows, work):
 
 
 @njit(**JIT)
-def _predicted(d, Z, Z0):
+def _predicted(P, Z, Z0):
     """Z ← P Z0 (``alpha.step_matrices``), row by row on an unsigned index (vectorised, as
     ``algebra.axpy``)."""
-    P = d.predictor
     a, b, c, e = Z0[0], Z0[1], Z0[2], Z0[3]
     n = np.uintp(Z.shape[1])
     for i in range(4):
@@ -198,9 +197,9 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc, scratch):
     ([frame_terms, kept_steps, kept]) and the kept rank-9 rows as they were, for the NumPy
     step to take the step."""
     rotor = d.law == ROTOR
-    start = _saved(Z, lam, mass_acc, policy, scratch)
+    start = _saved(Z, lam, mass_acc, policy, (scratch[22], scratch[23], scratch[24], scratch[25]))
     kept_rows = scratch[19]
-    _predicted(d, Z, start[0])
+    _predicted(d.predictor, Z, start[0])
     U = directions_at(t1, d.directions, d.drive_rows, d.drive_vectors, d.drive_params)
     units = d.rows_all[:d.rows_all.shape[0] - d.rank]
     f_ext = external_force(t1, d.gravity, d.load_vectors, d.load_params, scratch[15],
@@ -213,6 +212,10 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc, scratch):
     previous = delta = math.inf
     R_lin, phase_lin = scratch[16], scratch[10]
     a, lu, piv = scratch[17], scratch[8], scratch[18]
+    # solve's work arrays alone: every array of a tuple passed to a function costs a call to
+    # Numba's count functions, even without an owner (``unowned``)
+    solve_work = (scratch[0], scratch[1], scratch[2], scratch[4], scratch[5], scratch[9],
+                  scratch[20])
     state = _law_state(d, Z[0], Z[1], scratch)
     iteration = 0
     while iteration < d.max_iterations:
@@ -238,7 +241,7 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc, scratch):
                          scratch[3])
             dq, dlam = solve(bordered, a, lu, piv, r, g, R_lin, phase_lin, rotor, d.pairs,
                              d.s0_inverse, d.s0_symmetric, d.rows_all, d.solves_all,
-                             d.vector_index, d.rank, scratch)
+                             d.vector_index, d.rank, solve_work)
             mass_dq = _mass_product(rotor, dq, d.mass, d.gram, scratch[12])
             delta = math.sqrt(abs(dq @ mass_dq) / d.total_mass)
             if upgrade or every or not delta > d.upgrade_rate * previous or not corotated:
@@ -275,9 +278,9 @@ def _update(u, dq, mass_dq, Z, mass_acc):
 
 
 @njit(**JIT)
-def _saved(Z, lam, mass_acc, policy, scratch):
-    """Z, λ, Mr q̈ and the policy at a step's start, copied into the stretch's work arrays."""
-    start = (scratch[22], scratch[23], scratch[24], scratch[25])
+def _saved(Z, lam, mass_acc, policy, start):
+    """Z, λ, Mr q̈ and the policy at a step's start, copied into ``start`` (the stretch's work
+    arrays 22–25)."""
     start[0][:, :] = Z
     start[1][:] = lam
     start[2][:] = mass_acc
