@@ -186,7 +186,7 @@ def corotated_parts(e, rate, z, KP, mass_projected, damping, alpha, beta):
 @njit(**JIT)
 def elastic_frame(local, P, H, S_inv):
     """(b, P − H [b]×) of the elastic forces P alone (corotated.frame_force)."""
-    b = mv3(S_inv, axial(tmul(local, P)))
+    b = _frame_couple(S_inv, tmul(local, P), np.empty(3))
     return b, P - mul(H, skew(b))
 
 
