@@ -257,15 +257,18 @@ class Body:
         """c = Qᵀ g1 / m."""
         return q.reshape(-1, 3).T @ self.field_mass / self.total_mass_kg
 
-    def momenta(self, Q: np.ndarray, V: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def momenta(self, Q: np.ndarray, V: np.ndarray, GV: np.ndarray | None = None
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """For k states Q, Q̇ (k, nf, 3): kinetic energy ½ q̇ᵀ Mr q̇ = ½ Q̇ : G Q̇, linear
         momentum Q̇ᵀ g1 and angular momentum L = ∫ρ x × ẋ dV = Σ_f Q_f × (G Q̇)_f about the
-        origin, of shapes (k,), (k, 3), (k, 3). G Q̇ is one product for all k states, L the
-        axial vector w((G Q̇)ᵀ Q) of k 3 × 3 products (np.cross summed made temporaries thrice
-        that size: a recorded block's flush took twice as long)."""
-        k, nf = V.shape[:2]
-        GV = np.asarray(self.gram @ V.transpose(1, 0, 2).reshape(nf, 3 * k))
-        GV = GV.reshape(nf, k, 3).transpose(1, 0, 2)
+        origin, of shapes (k,), (k, 3), (k, 3). G Q̇ is given (``GV``: the recorder's rows) or
+        one product for all k states; L is the axial vector w((G Q̇)ᵀ Q) of k 3 × 3 products
+        (np.cross summed made temporaries thrice that size: a recorded block's flush took twice
+        as long)."""
+        if GV is None:
+            k, nf = V.shape[:2]
+            GV = np.asarray(self.gram @ V.transpose(1, 0, 2).reshape(nf, 3 * k))
+            GV = GV.reshape(nf, k, 3).transpose(1, 0, 2)
         return (0.5 * np.einsum("kfa,kfa->k", V, GV), np.matmul(self.field_mass, V),
                 axial(np.matmul(GV.transpose(0, 2, 1), Q)))
 

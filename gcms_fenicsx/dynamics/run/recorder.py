@@ -164,7 +164,7 @@ class RawRows(NamedTuple):
     keeps the same accounts in the same arrays. ``counters``: rows filled, whether ``power``
     holds the previous step's powers."""
 
-    qv: np.ndarray             # (rows, 2, n): q and q̇
+    qv: np.ndarray             # (rows, 3, n): q, q̇ and Mr q̇; (rows, 2, n) where rows are p
     multipliers: np.ndarray    # (rows, m or 0)
     scalars: np.ndarray        # (rows, 6): t, Newton iterations, V, load, constraint, damping work
     work: np.ndarray           # (3,): load, constraint, damping work so far
@@ -183,7 +183,9 @@ class Recorder:
 
     In the time loop a step only adds its powers to the work integrals (the trapezoidal rule
     takes every step) and, when it is recorded, copies its raw row into preallocated arrays:
-    q and q̇ in one copy, λ, and a tuple of scalars (t, iterations, V, the works). The derived
+    q and q̇ in one copy with Mr q̇ (the compiled step keeps Mr q̇ as it steps, so a block's
+    momenta need no product with G), λ, and a tuple of scalars (t, iterations, V, the works).
+    The derived
     series (group positions, momenta, energies) are computed for a whole block of rows at
     once when it is handed on (:meth:`flush`). A block holds ``plan.block_rows`` rows, fewer
     where the raw rows of a large body would exceed ``BLOCK_BYTES``
@@ -206,8 +208,9 @@ class Recorder:
         self.plan, self.sink, self.lift, self.stress = plan, sink, lift, stress
         n = body.dofs if lift is None else lift.shape[1]
         m = constraints.count if outputs.constraint_forces else 0
-        rows = max(1, min(plan.block_rows, BLOCK_BYTES // (8 * (2 * n + m + 6))))
-        self.raw = RawRows(qv=np.zeros((rows, 2, n)), multipliers=np.zeros((rows, m)),
+        kept = 3 if lift is None else 2          # with Mr q̇ for the momenta (:meth:`record`)
+        rows = max(1, min(plan.block_rows, BLOCK_BYTES // (8 * (kept * n + m + 6))))
+        self.raw = RawRows(qv=np.zeros((rows, kept, n)), multipliers=np.zeros((rows, m)),
                            scalars=np.zeros((rows, 6)), work=np.zeros(3), power=np.zeros(3),
                            counters=np.zeros(2, dtype=np.int64), every=outputs.every,
                            last_step=plan.steps, energy=outputs.energy,
@@ -255,7 +258,9 @@ class Recorder:
         """Copy the raw row of a state already accounted for by :meth:`step`."""
         raw = self.raw
         k = self.filled
-        raw.qv[k] = s.Z[:2]
+        raw.qv[k, :2] = s.Z[:2]
+        if self.lift is None:
+            raw.qv[k, 2] = self.body.mass_product.dot(s.Z[1])
         if raw.multipliers.shape[1]:
             raw.multipliers[k] = s.lam
         raw.scalars[k, :3] = s.t, info.iterations, info.elastic.energy if raw.energy else 0.0
@@ -282,12 +287,13 @@ class Recorder:
                 h = body.groups[g].position
                 block[f"groups/{g}/position"] = np.matmul(h, Q)
                 block[f"groups/{g}/velocity"] = np.matmul(h, V)
-            kinetic, block["momentum/linear"], block["momentum/angular"] = body.momenta(Q, V)
+            kinetic, block["momentum/linear"], block["momentum/angular"] = body.momenta(
+                Q, V, qv[:, 2].reshape(k, -1, 3))
         else:
             kinetic = self._lifted_series(block, raw.qv[:k, 0], raw.qv[:k, 1])
         block[MULTIPLIERS] = raw.multipliers[:k].copy()
         if out.coordinates:
-            qv = raw.qv[:k] if self.lift is None else raw.qv[:k].dot(self.lift.T)
+            qv = raw.qv[:k, :2] if self.lift is None else raw.qv[:k, :2].dot(self.lift.T)
             block["coordinates/q"], block["coordinates/v"] = qv[:, 0], qv[:, 1]
         if self.stress is not None:
             q = raw.qv[:k, 0] if self.lift is None else raw.qv[:k, 0].dot(self.lift.T)

@@ -37,9 +37,10 @@ EMPTY2 = np.zeros((0, 0))
 #: from this many packed entries the SVK law's coefficients) through one triangle
 #: (``compiled.algebra.product``, BLAS dsymv: half the memory a general product streams, at a
 #: higher cost per call). Two such products alternating on one core of a 2 MB-L2 Xeon, general
-#: against one triangle: 54 coordinates 0.7 against 1.8 µs, 99: 2.5 against 3.3, 189: 7.8
-#: against 7.2, 282: 17.1 against 14.0, 450: 111 against 43.
-SYMMETRIC_FROM = 180
+#: against one triangle (2026-12-05): 54 coordinates 0.30 against 0.30 µs, 99: 1.01 against
+#: 0.82, 140: 1.59 against 1.27, 189: 3.27 against 2.52, 282: 6.34 against 4.71, 450: 49.8
+#: against 15.3.
+SYMMETRIC_FROM = 90
 
 
 class StepData(NamedTuple):

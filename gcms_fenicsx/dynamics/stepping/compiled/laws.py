@@ -42,16 +42,25 @@ def residual(rotor, pairs, y, gradient, R_state, phase_state, same, R, phase, ou
                 out[j] += gradient[j]
         return out
     M = R if same else mat3(R_state, R, True)
+    r00, r01, r02, r10, r11, r12 = R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2]
+    r20, r21, r22 = R[2, 0], R[2, 1], R[2, 2]    # in scalars (``algebra.tmul_into``)
+    m00, m01, m02, m10, m11, m12 = M[0, 0], M[0, 1], M[0, 2], M[1, 0], M[1, 1], M[1, 2]
+    m20, m21, m22 = M[2, 0], M[2, 1], M[2, 2]
     for f in range(y.shape[0] // 3):
         y0, y1, y2 = y[3 * f], y[3 * f + 1], y[3 * f + 2]
         g0, g1, g2 = gradient[3 * f], gradient[3 * f + 1], gradient[3 * f + 2]
-        for j in range(3):
-            x = y0 * R[0, j] + y1 * R[1, j] + y2 * R[2, j]
-            if same:
-                x += gradient[3 * f + j]
-            else:
-                x += g0 * M[0, j] + g1 * M[1, j] + g2 * M[2, j]
-            out[3 * f + j] = x
+        x0 = y0 * r00 + y1 * r10 + y2 * r20
+        x1 = y0 * r01 + y1 * r11 + y2 * r21
+        x2 = y0 * r02 + y1 * r12 + y2 * r22
+        if same:
+            x0 += g0
+            x1 += g1
+            x2 += g2
+        else:
+            x0 += g0 * m00 + g1 * m10 + g2 * m20
+            x1 += g0 * m01 + g1 * m11 + g2 * m21
+            x2 += g0 * m02 + g1 * m12 + g2 * m22
+        out[3 * f], out[3 * f + 1], out[3 * f + 2] = x0, x1, x2
     return out
 
 
@@ -63,10 +72,13 @@ def back(rotor, pairs, z, R, phase, out):
         for j in range(z.shape[0]):
             out[j] = -out[j]
         return out
+    r00, r01, r02, r10, r11, r12 = R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2]
+    r20, r21, r22 = R[2, 0], R[2, 1], R[2, 2]    # in scalars (``algebra.tmul_into``)
     for f in range(z.shape[0] // 3):        # −(R z_f) for every field
         z0, z1, z2 = z[3 * f], z[3 * f + 1], z[3 * f + 2]
-        for j in range(3):
-            out[3 * f + j] = -(R[j, 0] * z0 + R[j, 1] * z1 + R[j, 2] * z2)
+        out[3 * f] = -(r00 * z0 + r01 * z1 + r02 * z2)
+        out[3 * f + 1] = -(r10 * z0 + r11 * z1 + r12 * z2)
+        out[3 * f + 2] = -(r20 * z0 + r21 * z1 + r22 * z2)
     return out
 
 
@@ -85,54 +97,65 @@ def corotated_state(q, v, H, k1, g1m, q0p, KP, mass_projected, damping, alpha, b
     nf = H.shape[0]
     Q, Vd = q.reshape(nf, 3), v.reshape(nf, 3)
     A, VH = small[5], small[6]
-    A[:, :] = 0.0
-    VH[:, :] = 0.0
-    for f in range(nf):                          # Qᵀ H and Q̇ᵀ H in one pass
-        for i in range(3):
-            x, y = Q[f, i], Vd[f, i]
-            for j in range(3):
-                A[i, j] += x * H[f, j]
-                VH[i, j] += y * H[f, j]
+    tmul_into(Q, H, A)                           # Qᵀ H
+    if damping:
+        tmul_into(Vd, H, VH)                     # Q̇ᵀ H, for the rate only
     R, U, S_inv, ok = polar(A, small[:5])
     Om = skew(mv3(S_inv, axial(mat3(R, VH, True)))) if damping else small[7]   # damping only
     local, rate = work[0].reshape(nf, 3), work[2].reshape(nf, 3)
     rate[:, :] = 0.0
-    c, cr, b = small[9, 0], small[9, 1], small[9, 2]
-    c[:] = 0.0
-    cr[:] = 0.0
+    # the loops keep R, the means and b in scalars: the arrays that hold them may alias the
+    # ones written, so LLVM would load them again at every field (``algebra.tmul_into``)
+    r00, r01, r02, r10, r11, r12 = R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2]
+    r20, r21, r22 = R[2, 0], R[2, 1], R[2, 2]
+    c0 = c1 = c2 = d0 = d1 = d2 = 0.0
     for f in range(nf):                          # Q_loc = Q R, Q̇ R + Q_loc [ω]×, their means
-        for j in range(3):
-            x = Q[f, 0] * R[0, j] + Q[f, 1] * R[1, j] + Q[f, 2] * R[2, j]
-            local[f, j] = x
-            c[j] += g1m[f] * x
+        x0, x1, x2 = Q[f, 0], Q[f, 1], Q[f, 2]
+        l0 = x0 * r00 + x1 * r10 + x2 * r20
+        l1 = x0 * r01 + x1 * r11 + x2 * r21
+        l2 = x0 * r02 + x1 * r12 + x2 * r22
+        local[f, 0], local[f, 1], local[f, 2] = l0, l1, l2
+        g = g1m[f]
+        c0 += g * l0
+        c1 += g * l1
+        c2 += g * l2
         if damping:
             for j in range(3):
-                x = (Vd[f, 0] * R[0, j] + Vd[f, 1] * R[1, j] + Vd[f, 2] * R[2, j]
-                     + local[f, 0] * Om[0, j] + local[f, 1] * Om[1, j] + local[f, 2] * Om[2, j])
-                rate[f, j] = x
-                cr[j] += g1m[f] * x
+                y = (Vd[f, 0] * R[0, j] + Vd[f, 1] * R[1, j] + Vd[f, 2] * R[2, j]
+                     + l0 * Om[0, j] + l1 * Om[1, j] + l2 * Om[2, j])
+                rate[f, j] = y
+            d0 += g * rate[f, 0]
+            d1 += g * rate[f, 1]
+            d2 += g * rate[f, 2]
     e, w = work[1].reshape(nf, 3), work[3]
     for f in range(nf):                          # Π applied; e + β ė
-        for j in range(3):
-            x = local[f, j] - k1[f] * c[j] - q0p[f, j]
-            e[f, j] = x
-            if damping:
-                y = rate[f, j] - k1[f] * cr[j]
-                rate[f, j] = y
-                x += beta * y
-            w[3 * f + j] = x
+        kf = k1[f]
+        x0 = local[f, 0] - kf * c0 - q0p[f, 0]
+        x1 = local[f, 1] - kf * c1 - q0p[f, 1]
+        x2 = local[f, 2] - kf * c2 - q0p[f, 2]
+        e[f, 0], e[f, 1], e[f, 2] = x0, x1, x2
+        if damping:
+            y0 = rate[f, 0] - kf * d0
+            y1 = rate[f, 1] - kf * d1
+            y2 = rate[f, 2] - kf * d2
+            rate[f, 0], rate[f, 1], rate[f, 2] = y0, y1, y2
+            x0 += beta * y0
+            x1 += beta * y1
+            x2 += beta * y2
+        w[3 * f], w[3 * f + 1], w[3 * f + 2] = x0, x1, x2
     z = work[4]
     product(KP, w, z, symmetric)
     total = z.reshape(nf, 3)
     if damping and alpha != 0.0:
         total = total + alpha * gram_product(mass_projected, rate)
-    _frame_couple(S_inv, tmul_into(local, total, small[8]), b)
+    b = _frame_couple(S_inv, tmul_into(local, total, small[8]), small[9, 2])
     gradient = work[5]
+    b0, b1, b2 = b[0], b[1], b[2]
     for f in range(nf):          # P_f − h_fᵀ [b]× = P_f − h_f × b
         h0, h1, h2 = H[f, 0], H[f, 1], H[f, 2]
-        gradient[3 * f] = total[f, 0] - (h1 * b[2] - h2 * b[1])
-        gradient[3 * f + 1] = total[f, 1] - (h2 * b[0] - h0 * b[2])
-        gradient[3 * f + 2] = total[f, 2] - (h0 * b[1] - h1 * b[0])
+        gradient[3 * f] = total[f, 0] - (h1 * b2 - h2 * b1)
+        gradient[3 * f + 1] = total[f, 1] - (h2 * b0 - h0 * b2)
+        gradient[3 * f + 2] = total[f, 2] - (h0 * b1 - h1 * b0)
     return ok, R, U, S_inv, gradient, local, e, rate, z
 
 

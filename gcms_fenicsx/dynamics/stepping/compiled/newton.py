@@ -6,9 +6,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from gcms_fenicsx.dynamics.stepping.compiled.algebra import (JIT, axial, gram_product, lu_factor,
-                                                             lu_solve, mat3, mul_into, mv3,
-                                                             product, remove, skew, tmul, xe)
+from gcms_fenicsx.dynamics.stepping.compiled.algebra import (INLINE, JIT, axial, gram_product,
+                                                             lu_factor, lu_solve, mat3,
+                                                             mul_into, mv3, product, remove,
+                                                             skew, tmul, xe)
 from gcms_fenicsx.dynamics.stepping.compiled.laws import back
 from gcms_fenicsx.dynamics.stepping.kernel_data import ROTOR
 
@@ -54,26 +55,51 @@ def field_frame_update(U, S_inv, local, P, b, gradient, H, k1, g1m, KP, gram, ga
                 U3[3 * f + j, k] = -xe(gradient[f], k, j)
     AC = apply_A(C_hat, KP, KP, gram, False, gamma_p, alpha, beta, symmetric)
     AC9 = AC.reshape(nf, 9)
-    B = (AC9 - np.outer(g1m, k1 @ AC9)).reshape(n, 3)    # Πᵀ A Ĉ
+    mean = np.zeros(9)                           # k1ᵀ A Ĉ, fieldwise
+    for f in range(nf):
+        for c in range(9):
+            mean[c] += k1[f] * AC9[f, c]
     Yl = tmul(local, P)
     X3 = skew(mv3(U, b))                       # [U b]×, plus M_Yᵀ: [k, c] = w([e_k]× Y)_c
     E = np.eye(3)
     for k in range(3):
         X3[k] += axial(mat3(skew(E[k]), Yl))
-    hb = H @ b
-    db = np.empty((3, n))                        # column (f, k): db
-    for f in range(nf):
+    M = np.zeros((3, 3))                         # Ĉᵀ A Ĉ
+    for i in range(n):
         for k in range(3):
-            om = W_T[3 * f + k]
             for j in range(3):
-                oj = om[0] * X3[0, j] + om[1] * X3[1, j] + om[2] * X3[2, j]
-                db[j, 3 * f + k] = (xe(P[f], k, j) - oj - H[f, k] * b[j]
-                                    + (hb[f] if j == k else 0.0))
+                M[k, j] += C_hat[i, k] * AC[i, j]
+    X = np.empty((n, 3))                         # Πᵀ A Ĉ + U₃
     Y = np.empty((9, n))
-    Y[0:3] = W_T.T
-    Y[3:6] = B.T + (C_hat.T @ AC) @ W_T.T
-    Y[6:9] = S_inv @ db
-    return B + U3, Y
+    for f in range(nf):
+        hb = H[f, 0] * b[0] + H[f, 1] * b[1] + H[f, 2] * b[2]
+        for k in range(3):
+            i = 3 * f + k
+            om = W_T[i]
+            db0, db1, db2 = _frame_rate_row(P[f], k, om, X3, H[f, k], b, hb)
+            for j in range(3):
+                B = AC9[f, 3 * k + j] - g1m[f] * mean[3 * k + j]
+                X[i, j] = B + U3[i, j]
+                Y[3 + j, i] = B + M[j, 0] * om[0] + M[j, 1] * om[1] + M[j, 2] * om[2]
+                Y[j, i] = om[j]
+                Y[6 + j, i] = S_inv[j, 0] * db0 + S_inv[j, 1] * db1 + S_inv[j, 2] * db2
+    return X, Y
+
+
+@njit(**INLINE)
+def _frame_rate_row(Pf, k, om, X3, hfk, b, hb):
+    """Column (f, k) of db in :func:`field_frame_update`: (P_f × e_k) − X3ᵀ ω − h_fk b
+    + (h_f · b) e_k, ω = W_T's row (f, k)."""
+    out0 = xe(Pf, k, 0) - (om[0] * X3[0, 0] + om[1] * X3[1, 0] + om[2] * X3[2, 0]) - hfk * b[0]
+    out1 = xe(Pf, k, 1) - (om[0] * X3[0, 1] + om[1] * X3[1, 1] + om[2] * X3[2, 1]) - hfk * b[1]
+    out2 = xe(Pf, k, 2) - (om[0] * X3[0, 2] + om[1] * X3[1, 2] + om[2] * X3[2, 2]) - hfk * b[2]
+    if k == 0:
+        out0 += hb
+    elif k == 1:
+        out1 += hb
+    else:
+        out2 += hb
+    return out0, out1, out2
 
 
 @njit(**JIT)

@@ -8,7 +8,7 @@ import math
 import numpy as np
 from numba import njit
 
-from gcms_fenicsx.dynamics.stepping.compiled.algebra import JIT, axpy
+from gcms_fenicsx.dynamics.stepping.compiled.algebra import INLINE, JIT, axpy
 from gcms_fenicsx.dynamics.stepping.compiled.forcing import directions_at, external_force
 from gcms_fenicsx.dynamics.stepping.compiled.laws import (corotated_energies, corotated_parts,
                                                           corotated_state,
@@ -30,15 +30,15 @@ DONE, BLOCK_FULL, HANDED_OVER = 0, 1, 2
 #: (7–10); the law's own work arrays (11); Mr Δq (12); Cᵀλ (13); f_ext and the loads' factors
 #: (14, 15); the linearisation's R (a copy), then what types a step's a, pivots and kept rows
 #: before they are made (16–19); the bordered system's right-hand side and solution (20); g
-#: (21); Z, λ, Mr q̈ and the policy at the step's start (22–25); Mr q̈ (26); the laws' 3 × 3
-#: work matrices (SMALL: the polar decomposition's five, Qᵀ H, Q̇ᵀ H, a stand-in for [ω]×
-#: (made anew with damping), Q_locᵀ P, and three vectors as rows of the last); the bordered
-#: system's a, capacitance matrix, G W and pivots (BORDERED, ``newton.prepare``); the rotor
-#: law's frame, I (29).
+#: (21); Z, λ, Mr [q̇; q̈; a] and the policy at the step's start (22–25); Mr [q̇; q̈; a] (26);
+#: the laws' 3 × 3 work matrices (SMALL: the polar decomposition's five, Qᵀ H, Q̇ᵀ H, a
+#: stand-in for [ω]× (made anew with damping), Q_locᵀ P, and b as a row of the last); the
+#: bordered system's a, capacitance matrix, G W and pivots (BORDERED, ``newton.prepare``); the
+#: rotor law's frame, I (29).
 SMALL, BORDERED = 27, 28
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def _row_values(U, units_x, index, out):
     """C x = [u_i · (c_k(e) x)]_i, k = index[i], from the units' products ``units_x`` (3 nv,),
     into ``out``."""
@@ -49,7 +49,7 @@ def _row_values(U, units_x, index, out):
     return out
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def _add_rows_transposed(U, lam, units, index, w, product, y):
     """y += Cᵀ λ = Σ_i λ_i Σ_l u_il c_k(e_l), k = index[i] (``w``, ``product``: work)."""
     w[:] = 0.0
@@ -62,7 +62,7 @@ def _add_rows_transposed(U, lam, units, index, w, product, y):
         y[j] += product[j]
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def _mass_product(rotor, x, mass, gram, out):
     """Mr x: G ⊗ I3 on GCMS coordinates, Mp on rotor coordinates (into ``out``)."""
     if rotor:
@@ -82,12 +82,13 @@ def _scratch(n, rows, m, loads, k):
              np.empty(n), np.empty(n), np.empty(n)), np.empty(n), np.empty(n), np.empty(n),
             np.empty(loads), np.eye(3), np.empty((m, 3)), np.empty(0, dtype=np.int64),
             np.empty((0, n)), np.empty(k), np.empty(m), np.empty((4, n)), np.empty(m),
-            np.empty(n), np.empty(3, dtype=np.int64), np.empty(n), np.empty((10, 3, 3)),
+            np.empty((3, n)), np.empty(3, dtype=np.int64), np.empty((3, n)),
+            np.empty((10, 3, 3)),
             (np.empty((m, 3)), np.empty(k * k), np.empty(m * rows), np.empty(k, dtype=np.int64)),
             np.eye(3))
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def _law_state(d, q, v, scratch):
     """The running law at (q, q̇): (ok, R, phase, Tᵀ(∂V/∂q + f_d), V, ėᵀ D₀ ė, then what its
     change of frame needs: co-rotated (U, S⁻¹, Q_loc, e, ė, z), rotor (f, c, s, β, ρ)); the
@@ -132,7 +133,7 @@ def _relinearised(d, state):
     relinearise(d, X, Y, S_inv)
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def _inertia_and_rows(U, lam, q, mass_acc, f_ext, units, index, targets, y, w, products,
                       transposed, g_out):
     """(y, g): y = Mr q̈ − f_ext + Cᵀ λ (into ``y``) and g = C q − d, through the units (``w``,
@@ -152,7 +153,7 @@ def _inertia_and_rows(U, lam, q, mass_acc, f_ext, units, index, targets, y, w, p
     return y, g
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def _linearised(d, state, exact, relinearise, policy, U, kept_rows, work):
     """BorderedKKT.prepare at the law state ``state``: the rank-9 (rank-2) rows relinearised
     where asked (or never made; the rows they replace kept in ``kept_rows`` for a hand-over),
@@ -174,15 +175,18 @@ def _linearised(d, state, exact, relinearise, policy, U, kept_rows, work):
     return bordered, a, lu, piv, kept_rows
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def _predicted(P, Z, Z0):
-    """Z ← P Z0 (``alpha.step_matrices``), row by row on an unsigned index (vectorised, as
-    ``algebra.axpy``)."""
-    a, b, c, e = Z0[0], Z0[1], Z0[2], Z0[3]
+    """Z ← P Z0 (``alpha.step_matrices``) for the state Z = [q; q̇; q̈; a], or for its last
+    three rows (Mr [q̇; q̈; a]: P's first column is zero below its first row), row by row on
+    an unsigned index (vectorised, as ``algebra.axpy``)."""
+    first = 4 - Z.shape[0]
+    b, c, e = Z0[1 - first], Z0[2 - first], Z0[3 - first]
+    a = Z0[0] if first == 0 else b
     n = np.uintp(Z.shape[1])
-    for i in range(4):
-        p0, p1, p2, p3 = P[i, 0], P[i, 1], P[i, 2], P[i, 3]
-        z = Z[i]
+    for i in range(first, 4):
+        p0, p1, p2, p3 = (P[i, 0] if first == 0 else 0.0), P[i, 1], P[i, 2], P[i, 3]
+        z = Z[i - first]
         j = np.uintp(0)
         while j < n:
             z[j] = p0 * a[j] + p1 * b[j] + p2 * c[j] + p3 * e[j]
@@ -190,16 +194,19 @@ def _predicted(P, Z, Z0):
 
 
 @njit(**JIT)
-def _step(d, Z, lam, t1, policy, energies, mass_acc, scratch):
+def _step(d, Z, lam, t1, policy, energies, mass_rates, momenta, scratch):
     """One step from Z (4 × n), λ to t1, in place (integrator.GeneralizedAlpha.step). Returns
     (converged, iterations, V, ėᵀ D₀ ė, f_ext, u(t1)), V and ėᵀ D₀ ė only if ``energies``;
-    ``mass_acc`` is Mr q̈ of Z, kept so. Not converged: Z, λ, Mr q̈, the policy
-    ([frame_terms, kept_steps, kept]) and the kept rank-9 rows as they were, for the NumPy
-    step to take the step."""
+    ``mass_rates`` is Mr [q̇; q̈; a] of Z, kept so (Mr q̈ alone unless ``momenta``). Not
+    converged: Z, λ, Mr [q̇; q̈; a], the policy ([frame_terms, kept_steps, kept]) and the kept
+    rank-9 rows as they were, for the NumPy step to take the step."""
     rotor = d.law == ROTOR
-    start = _saved(Z, lam, mass_acc, policy, (scratch[22], scratch[23], scratch[24], scratch[25]))
+    start = _saved(Z, lam, mass_rates, policy,
+                   (scratch[22], scratch[23], scratch[24], scratch[25]))
     kept_rows = scratch[19]
     _predicted(d.predictor, Z, start[0])
+    if momenta:                       # (the predictor keeps q̈, so Mr q̈ as it is)
+        _predicted(d.predictor, mass_rates, start[2])
     U = directions_at(t1, d.directions, d.drive_rows, d.drive_vectors, d.drive_params)
     units = d.rows_all[:d.rows_all.shape[0] - d.rank]
     f_ext = external_force(t1, d.gravity, d.load_vectors, d.load_params, scratch[15],
@@ -225,7 +232,7 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc, scratch):
         ok, R, phase, gradient = state[0], state[1], state[2], state[3]
         if not ok:
             break
-        y, g = _inertia_and_rows(U, lam, Z[0], mass_acc, f_ext, units, d.vector_index,
+        y, g = _inertia_and_rows(U, lam, Z[0], mass_rates[1], f_ext, units, d.vector_index,
                                  d.targets, scratch[6], scratch[5], scratch[4], scratch[13],
                                  scratch[21])
         prepared = iteration == 1 or every
@@ -251,7 +258,7 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc, scratch):
         if (not corotated and not every and delta > d.upgrade_rate * previous
                 and delta > d.tangent_rate * previous) or not delta < math.inf:
             break                          # redone with the SVK tangent, or failed
-        _update(d.update, dq, mass_dq, Z, mass_acc)
+        _update(d.update, dq, mass_dq, Z, mass_rates, momenta)
         lam += dlam
         tol = d.tolerance
         if delta <= tol or (delta * delta <= tol * (previous - delta)
@@ -265,35 +272,38 @@ def _step(d, Z, lam, t1, policy, energies, mass_acc, scratch):
                                                  d.mass_projected, d.damping, d.damping_alpha,
                                                  d.damping_beta, scratch[13], d.stiffness_symmetric)
     if not converged:
-        _restore(d, Z, lam, mass_acc, policy, start, kept_rows)
+        _restore(d, Z, lam, mass_rates, policy, start, kept_rows)
     return converged, iteration, energy, dissipation, f_ext, U
 
 
-@njit(**JIT)
-def _update(u, dq, mass_dq, Z, mass_acc):
-    """Z += u Δq, Mr q̈ += β' Mr Δq (β' = u₂), row by row."""
+@njit(**INLINE)
+def _update(u, dq, mass_dq, Z, mass_rates, momenta):
+    """Z += u Δq and Mr [q̇; q̈; a] += u₁…₃ Mr Δq (Mr q̈ alone unless ``momenta``), row by
+    row."""
     for i in range(4):
         axpy(u[i], dq, Z[i])
-    axpy(u[2], mass_dq, mass_acc)
+    for i in range(1, 4):
+        if momenta or i == 2:
+            axpy(u[i], mass_dq, mass_rates[i - 1])
 
 
-@njit(**JIT)
-def _saved(Z, lam, mass_acc, policy, start):
-    """Z, λ, Mr q̈ and the policy at a step's start, copied into ``start`` (the stretch's work
-    arrays 22–25)."""
+@njit(**INLINE)
+def _saved(Z, lam, mass_rates, policy, start):
+    """Z, λ, Mr [q̇; q̈; a] and the policy at a step's start, copied into ``start`` (the
+    stretch's work arrays 22–25)."""
     start[0][:, :] = Z
     start[1][:] = lam
-    start[2][:] = mass_acc
+    start[2][:, :] = mass_rates
     start[3][:] = policy
     return start
 
 
 @njit(**JIT)
-def _restore(d, Z, lam, mass_acc, policy, start, kept_rows):
+def _restore(d, Z, lam, mass_rates, policy, start, kept_rows):
     """A step handed over: everything it changed as it was before it."""
     Z[:, :] = start[0]
     lam[:] = start[1]
-    mass_acc[:] = start[2]
+    mass_rates[:, :] = start[2]
     policy[:] = start[3]
     if kept_rows.shape[0]:
         k = d.rank
@@ -328,13 +338,18 @@ def _stretch(d, rec, Z, lam, t, index, stop, h, policy, last, scratch):
     taken = 0
     if policy[2] and d.rank:
         frame_capacitance(d)        # the kept rows may have been set by the NumPy step
-    # Mr q̈, kept up to date by every correction's Mr Δq (the predictor keeps q̈)
-    mass_acc = _mass_product(d.law == ROTOR, Z[2], d.mass, d.gram, scratch[26])
+    # Mr [q̇; q̈; a], predicted and corrected as Z is (by every correction's Mr Δq): Mr q̈ for
+    # the residual, and where the recorder's rows have room for it (the body's own
+    # coordinates, not a rotor basis's) Mr q̇ for its momenta, so they need no product with G
+    mass_rates, momenta = scratch[26], rec.qv.shape[1] == 3
+    for i in range(3):
+        if momenta or i == 1:
+            _mass_product(d.law == ROTOR, Z[i + 1], d.mass, d.gram, mass_rates[i])
     while index < stop:
         t1 = t + h
         converged, iterations, energy, dissipation, f_ext, U = _step(d, Z, lam, t1, policy,
-                                                                     rec.energy, mass_acc,
-                                                                     scratch)
+                                                                     rec.energy, mass_rates,
+                                                                     momenta, scratch)
         if not converged:
             return HANDED_OVER, taken, t
         t, index = t1, index + 1
@@ -363,6 +378,8 @@ def _stretch(d, rec, Z, lam, t, index, stop, h, policy, last, scratch):
             k = counters[0]
             rec.qv[k, 0] = Z[0]
             rec.qv[k, 1] = Z[1]
+            if momenta:
+                rec.qv[k, 2] = mass_rates[0]
             if rec.multipliers.shape[1]:
                 rec.multipliers[k] = lam
             row = rec.scalars[k]
