@@ -23,11 +23,13 @@ def _drive_angle(W, T, cycloidal, t):
 
 
 @njit(**JIT)
-def directions_at(t, directions, drive_rows, drive_vectors, drive_params):
-    """u_i(t): the rows a drive turns turned by its angle (Constraints.directions_at)."""
+def directions_at(t, directions, drive_rows, drive_vectors, drive_params, out):
+    """u_i(t): the rows a drive turns turned by its angle (Constraints.directions_at), into
+    ``out`` (m × 3) if any row is driven."""
     if drive_rows.shape[0] == 0:
         return directions
-    U = directions.copy()
+    U = out
+    U[:, :] = directions
     for j in range(drive_rows.shape[0]):
         theta = _drive_angle(drive_params[j, 0], drive_params[j, 1], drive_params[j, 2] == 1.0,
                              t)

@@ -215,18 +215,20 @@ def elastic_frame(local, P, H, S_inv):
 
 @njit(**JIT)
 def rotor_state(p, v, plane_map, p0, K, translation, weights, pairs, damping, D, work,
-                symmetric):
+                symmetric, plane, phase):
     """rotor.rotor_state, with rotor.RotorDamping.local_force: (ok, phase, Tᵀ(∂V/∂p + f_d),
     V, ėᵀ D₀ ė, f, c, s, β, ρ); p_l, e, f, c, s, the force and the damping's ẋ, ė, D₀ ė are
-    written into the stretch's ``work`` arrays (n each)."""
-    N = plane_map @ p
+    written into the stretch's ``work`` arrays (n each), the plane's four sums and the phase
+    into ``plane`` (4,) and ``phase`` (2,)."""
+    N = np.dot(plane_map, p, plane)
     X, Y = N[0] + N[3], N[2] - N[1]
     rho = math.hypot(X, Y)
     n = p.shape[0]
     if not N[0] * N[3] - N[1] * N[2] > COLLAPSED * rho * rho:
         z = np.zeros(n)
-        return False, np.array([1.0, 0.0]), z, 0.0, 0.0, z, z, z, 0.0, 1.0
-    phase = np.array([X / rho, Y / rho])
+        phase[0], phase[1] = 1.0, 0.0
+        return False, phase, z, 0.0, 0.0, z, z, z, 0.0, 1.0
+    phase[0], phase[1] = X / rho, Y / rho
     local, e, f, c, slope, gradient = work[0], work[1], work[2], work[3], work[4], work[5]
     _turned_into(p, pairs, phase[0], -phase[1], local)
     for j in range(n):

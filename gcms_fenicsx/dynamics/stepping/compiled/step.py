@@ -33,8 +33,9 @@ DONE, BLOCK_FULL, HANDED_OVER = 0, 1, 2
 #: (21); Z, λ, Mr [q̇; q̈; a] and the policy at the step's start (22–25); Mr [q̇; q̈; a] (26);
 #: the laws' 3 × 3 work matrices (SMALL: the polar decomposition's five, Qᵀ H, Q̇ᵀ H, a
 #: stand-in for [ω]× (made anew with damping), Q_locᵀ P, and b as a row of the last); the
-#: bordered system's a, capacitance matrix, G W and pivots (BORDERED, ``newton.prepare``); the
-#: rotor law's frame, I (29).
+#: bordered system's a, capacitance matrix, G W, pivots (BORDERED, ``newton.prepare``) and the
+#: rotor frame's rotation; the rotor law's frame, I (29), its plane's sums N and its phase (30,
+#: 31); the linearisation's phase (32, a copy); the driven directions u(t) (33).
 SMALL, BORDERED = 27, 28
 
 
@@ -84,8 +85,9 @@ def _scratch(n, rows, m, loads, k):
             np.empty((0, n)), np.empty(k), np.empty(m), np.empty((4, n)), np.empty(m),
             np.empty((3, n)), np.empty(3, dtype=np.int64), np.empty((3, n)),
             np.empty((10, 3, 3)),
-            (np.empty((m, 3)), np.empty(k * k), np.empty(m * rows), np.empty(k, dtype=np.int64)),
-            np.eye(3))
+            (np.empty((m, 3)), np.empty(k * k), np.empty(m * rows), np.empty(k, dtype=np.int64),
+             np.empty((3, 3))),
+            np.eye(3), np.empty(4), np.empty(2), np.empty(2), np.empty((m, 3)))
 
 
 @njit(**INLINE)
@@ -104,7 +106,7 @@ def _law_state(d, q, v, scratch):
     if d.law == ROTOR:
         ok, phase, gradient, energy, dissipation, f, c, slope, beta, rho = rotor_state(
             q, v, d.plane_map, d.q0, d.stiffness, d.translation, d.weights, d.pairs, d.damping,
-            d.rotor_damping, scratch[11], d.stiffness_symmetric)
+            d.rotor_damping, scratch[11], d.stiffness_symmetric, scratch[30], scratch[31])
         return (ok, scratch[29], phase, gradient, energy, dissipation, none2, none2, none3,
                 none3, none3, none1, f, c, slope, beta, rho)
     ok, R, gradient, energy = svk_state(q, d.affine, d.unit, d.unit_dual, d.svk_reference,
@@ -166,10 +168,15 @@ def _linearised(d, state, exact, relinearise, policy, U, kept_rows, work):
         _relinearised(d, state)
         policy[2] = 1
     bordered = m > 0 or exact
-    if not bordered:
-        return bordered, np.zeros((m, 3)), np.zeros((0, 0)), np.zeros(0, dtype=np.int64), kept_rows
+    if not bordered:        # (no rows: empty views of the work arrays, nothing allocated)
+        return bordered, work[0], work[1][:0].reshape(0, 0), work[3][:0], kept_rows
     R, phase, P = state[1], state[2], d.projectors
-    world = P[0] + phase[0] * P[1] + phase[1] * P[2] if d.law == ROTOR else R
+    world = R
+    if d.law == ROTOR:          # P₀ + cos ψ P₁ + sin ψ P₂, written out: inlined into the step,
+        world = work[4]         # the array expression would allocate each of its terms
+        for i in range(3):
+            for j in range(3):
+                world[i, j] = P[0, i, j] + phase[0] * P[1, i, j] + phase[1] * P[2, i, j]
     a, lu, piv = prepare(exact, U, world, d.pad_exact if exact else d.pad_plain,
                          d.unit_capacitance, d.vector_index, d.rank, work)
     return bordered, a, lu, piv, kept_rows
@@ -207,7 +214,8 @@ def _step(d, Z, lam, t1, policy, energies, mass_rates, momenta, scratch):
     _predicted(d.predictor, Z, start[0])
     if momenta:                       # (the predictor keeps q̈, so Mr q̈ as it is)
         _predicted(d.predictor, mass_rates, start[2])
-    U = directions_at(t1, d.directions, d.drive_rows, d.drive_vectors, d.drive_params)
+    U = directions_at(t1, d.directions, d.drive_rows, d.drive_vectors, d.drive_params,
+                      scratch[33])
     units = d.rows_all[:d.rows_all.shape[0] - d.rank]
     f_ext = external_force(t1, d.gravity, d.load_vectors, d.load_params, scratch[15],
                             scratch[14])
@@ -217,10 +225,9 @@ def _step(d, Z, lam, t1, policy, energies, mass_rates, momenta, scratch):
     exact = d.exact_mode or policy[0] == 1
     every = bordered = converged = False
     previous = delta = math.inf
-    R_lin, phase_lin = scratch[16], scratch[10]
+    R_lin, phase_lin = scratch[16], scratch[32]
     a, lu, piv = scratch[17], scratch[8], scratch[18]
-    # solve's work arrays alone: every array of a tuple passed to a function costs a call to
-    # Numba's count functions, even without an owner (``unowned``)
+    # solve's work arrays alone: each array of a tuple passed costs a count call (``unowned``)
     solve_work = (scratch[0], scratch[1], scratch[2], scratch[4], scratch[5], scratch[9],
                   scratch[20])
     state = _law_state(d, Z[0], Z[1], scratch)
@@ -238,9 +245,9 @@ def _step(d, Z, lam, t1, policy, energies, mass_rates, momenta, scratch):
         prepared = iteration == 1 or every
         upgrade = False
         while True:           # once, and again when a slow iteration upgrades the matrix
-            if prepared:             # R is a view of the law's work matrices: copied
+            if prepared:        # R and the phase are views of the law's work arrays: copied
                 R_lin[:, :] = R
-                phase_lin = phase
+                phase_lin[:] = phase
                 bordered, a, lu, piv, kept_rows = _linearised(d, state, exact,
                                                               relin or every, policy, U,
                                                               kept_rows, scratch[BORDERED])
