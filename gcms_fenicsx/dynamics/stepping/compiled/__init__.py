@@ -26,7 +26,9 @@ less arithmetic, so the two agree to round-off:
   the energy and the dissipation, which need the two apart, take one product more per step,
   only when the run records energies;
 - Π = I − k1 g1ᵀ/m is applied as the rank-one update it is, Mr = G ⊗ I3 through G, and
-  Mr q̈ is kept up to date by the corrections' Mr Δq (which the increment's norm needs anyway);
+  Mr [q̇; q̈; a] is predicted as Z is and kept up to date by the corrections' Mr Δq (which the
+  increment's norm needs anyway): Mr q̈ for the residual and, where the recorder's rows are
+  the body's own coordinates, Mr q̇ for its momenta, with no product with G;
 - the polar decomposition is Newton's iteration X ← ½ (X + X⁻ᵀ), not an SVD (R, U and
   S⁻¹ = (tr U · I − U)⁻¹ are what the step uses, and they do not depend on how they are found);
 - the constraint rows are never formed: in the frame R, row i is Σ_l a_il c_i(e_l) with
