@@ -183,9 +183,9 @@ class Recorder:
 
     In the time loop a step only adds its powers to the work integrals (the trapezoidal rule
     takes every step) and, when it is recorded, copies its raw row into preallocated arrays:
-    q and q̇ in one copy with Mr q̇ (the compiled step keeps Mr q̇ as it steps, so a block's
-    momenta need no product with G), λ, and a tuple of scalars (t, iterations, V, the works).
-    The derived
+    q and q̇ in one copy, Mr q̇ where the rows are the body's own coordinates (the compiled step
+    keeps it as it steps, the NumPy step's rows make it here, so a block's momenta need no
+    product with G), λ, and a tuple of scalars (t, iterations, V, the works). The derived
     series (group positions, momenta, energies) are computed for a whole block of rows at
     once when it is handed on (:meth:`flush`). A block holds ``plan.block_rows`` rows, fewer
     where the raw rows of a large body would exceed ``BLOCK_BYTES``

@@ -212,7 +212,7 @@ def _step(d, Z, lam, t1, policy, energies, mass_rates, momenta, scratch):
                    (scratch[22], scratch[23], scratch[24], scratch[25]))
     kept_rows = scratch[19]
     _predicted(d.predictor, Z, start[0])
-    if momenta:                       # (the predictor keeps q̈, so Mr q̈ as it is)
+    if momenta:                  # else only Mr q̈ is kept, which the predictor leaves as it is
         _predicted(d.predictor, mass_rates, start[2])
     U = directions_at(t1, d.directions, d.drive_rows, d.drive_vectors, d.drive_params,
                       scratch[33])
