@@ -133,13 +133,23 @@ def mul(X, M):
     return mul_into(X, M, np.empty((X.shape[0], 3)))
 
 
+@njit(**INLINE)
+def entries(M):
+    """The nine entries of a 3 × 3 matrix, row by row, as scalars: a loop over fields that
+    reads M keeps them so (M may alias the arrays it writes, so LLVM would load M again at
+    every field; :func:`tmul_into`)."""
+    return (M[0, 0], M[0, 1], M[0, 2], M[1, 0], M[1, 1], M[1, 2], M[2, 0], M[2, 1], M[2, 2])
+
+
 @njit(**JIT)
 def mul_into(X, M, out):
     """X M for X (k × 3), M (3 × 3), into ``out`` (k × 3)."""
+    m00, m01, m02, m10, m11, m12, m20, m21, m22 = entries(M)
     for f in range(X.shape[0]):
         x0, x1, x2 = X[f, 0], X[f, 1], X[f, 2]
-        for j in range(3):
-            out[f, j] = x0 * M[0, j] + x1 * M[1, j] + x2 * M[2, j]
+        out[f, 0] = x0 * m00 + x1 * m10 + x2 * m20
+        out[f, 1] = x0 * m01 + x1 * m11 + x2 * m21
+        out[f, 2] = x0 * m02 + x1 * m12 + x2 * m22
     return out
 
 
@@ -225,15 +235,17 @@ def gram_product(G, X, symmetric=False):
 
 @njit(**JIT)
 def remove(X, a, b):
-    """X − a (bᵀ X) for X (nf × 3): Π X with a = k1, b = g1/m, Πᵀ X with a = g1/m, b = k1
-    (``Body.projections``: Π = I − k1 g1ᵀ / m, applied as the rank-one update it is)."""
-    c = np.zeros(3)
+    """X − a (bᵀ X) for X (nf × k, fields by rows): Π X with a = k1, b = g1/m, Πᵀ X with
+    a = g1/m, b = k1 (``Body.projections``: Π = I − k1 g1ᵀ / m, applied as the rank-one update
+    it is)."""
+    k = X.shape[1]
+    c = np.zeros(k)
     for f in range(X.shape[0]):
-        for j in range(3):
+        for j in range(k):
             c[j] += b[f] * X[f, j]
     out = np.empty_like(X)
     for f in range(X.shape[0]):
-        for j in range(3):
+        for j in range(k):
             out[f, j] = X[f, j] - a[f] * c[j]
     return out
 

@@ -9,9 +9,9 @@ import math
 import numpy as np
 from numba import njit
 
-from gcms_fenicsx.dynamics.stepping.compiled.algebra import (JIT, axial, gram_product, mat3, mul,
-                                                             mv3, polar, product, remove, skew,
-                                                             tmul, tmul_into)
+from gcms_fenicsx.dynamics.stepping.compiled.algebra import (JIT, axial, entries, gram_product,
+                                                             mat3, mul, mv3, polar, product,
+                                                             remove, skew, tmul, tmul_into)
 
 COLLAPSED = 1e-12   # rotor.COLLAPSED
 
@@ -42,10 +42,8 @@ def residual(rotor, pairs, y, gradient, R_state, phase_state, same, R, phase, ou
                 out[j] += gradient[j]
         return out
     M = R if same else mat3(R_state, R, True)
-    r00, r01, r02, r10, r11, r12 = R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2]
-    r20, r21, r22 = R[2, 0], R[2, 1], R[2, 2]    # in scalars (``algebra.tmul_into``)
-    m00, m01, m02, m10, m11, m12 = M[0, 0], M[0, 1], M[0, 2], M[1, 0], M[1, 1], M[1, 2]
-    m20, m21, m22 = M[2, 0], M[2, 1], M[2, 2]
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = entries(R)
+    m00, m01, m02, m10, m11, m12, m20, m21, m22 = entries(M)
     for f in range(y.shape[0] // 3):
         y0, y1, y2 = y[3 * f], y[3 * f + 1], y[3 * f + 2]
         g0, g1, g2 = gradient[3 * f], gradient[3 * f + 1], gradient[3 * f + 2]
@@ -72,8 +70,7 @@ def back(rotor, pairs, z, R, phase, out):
         for j in range(z.shape[0]):
             out[j] = -out[j]
         return out
-    r00, r01, r02, r10, r11, r12 = R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2]
-    r20, r21, r22 = R[2, 0], R[2, 1], R[2, 2]    # in scalars (``algebra.tmul_into``)
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = entries(R)
     for f in range(z.shape[0] // 3):        # −(R z_f) for every field
         z0, z1, z2 = z[3 * f], z[3 * f + 1], z[3 * f + 2]
         out[3 * f] = -(r00 * z0 + r01 * z1 + r02 * z2)
@@ -104,10 +101,8 @@ def corotated_state(q, v, H, k1, g1m, q0p, KP, mass_projected, damping, alpha, b
     Om = skew(mv3(S_inv, axial(mat3(R, VH, True)))) if damping else small[7]   # damping only
     local, rate = work[0].reshape(nf, 3), work[2].reshape(nf, 3)
     rate[:, :] = 0.0
-    # the loops keep R, the means and b in scalars: the arrays that hold them may alias the
-    # ones written, so LLVM would load them again at every field (``algebra.tmul_into``)
-    r00, r01, r02, r10, r11, r12 = R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2]
-    r20, r21, r22 = R[2, 0], R[2, 1], R[2, 2]
+    # the loops keep R, the means and b in scalars (``algebra.entries``)
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = entries(R)
     c0 = c1 = c2 = d0 = d1 = d2 = 0.0
     for f in range(nf):                          # Q_loc = Q R, Q̇ R + Q_loc [ω]×, their means
         x0, x1, x2 = Q[f, 0], Q[f, 1], Q[f, 2]

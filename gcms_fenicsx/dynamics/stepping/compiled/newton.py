@@ -54,11 +54,7 @@ def field_frame_update(U, S_inv, local, P, b, gradient, H, k1, g1m, KP, gram, ga
                 C_hat[3 * f + j, k] = xe(PL[f], k, j)
                 U3[3 * f + j, k] = -xe(gradient[f], k, j)
     AC = apply_A(C_hat, KP, KP, gram, False, gamma_p, alpha, beta, symmetric)
-    AC9 = AC.reshape(nf, 9)
-    mean = np.zeros(9)                           # k1ᵀ A Ĉ, fieldwise
-    for f in range(nf):
-        for c in range(9):
-            mean[c] += k1[f] * AC9[f, c]
+    B9 = remove(AC.reshape(nf, 9), g1m, k1)     # Πᵀ A Ĉ, fieldwise
     Yl = tmul(local, P)
     X3 = skew(mv3(U, b))                       # [U b]×, plus M_Yᵀ: [k, c] = w([e_k]× Y)_c
     E = np.eye(3)
@@ -78,7 +74,7 @@ def field_frame_update(U, S_inv, local, P, b, gradient, H, k1, g1m, KP, gram, ga
             om = W_T[i]
             db0, db1, db2 = _frame_rate_row(P[f], k, om, X3, H[f, k], b, hb)
             for j in range(3):
-                B = AC9[f, 3 * k + j] - g1m[f] * mean[3 * k + j]
+                B = B9[f, 3 * k + j]
                 X[i, j] = B + U3[i, j]
                 Y[3 + j, i] = B + M[j, 0] * om[0] + M[j, 1] * om[1] + M[j, 2] * om[2]
                 Y[j, i] = om[j]
